@@ -1,0 +1,20 @@
+//! `mesopush`: the host command line. Thin over `mesopush_host`: each subcommand module parses
+//! its flags, calls the library and prints.
+
+use clap::{Parser, Subcommand};
+
+/// Design, execute and verify open-loop pushing plans for meso-scale assembly.
+#[derive(Debug, Parser)]
+#[command(name = "mesopush", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {}
+
+fn main() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    match cli.command {}
+}

@@ -1,0 +1,11 @@
+//! mesopush host library: the quasi-static pushing simulator and everything built on it.
+//!
+//! Units (one convention for the whole host): lengths in µm, angles in rad, time in s, all
+//! `f64`, with the unit in every field name (`x_um`, `theta_rad`, `speed_um_s`). Conversions
+//! to the wire's sized integers (nm `i32`, µs `u64`, nm/s `u32`) live in [`units`] only.
+
+pub mod error;
+pub mod geom;
+pub mod units;
+
+pub use error::Error;

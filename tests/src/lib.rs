@@ -1,0 +1,1 @@
+//! Full-loop tests (plan → flash → execute → camera → track → verdict) live in `tests/`.
