@@ -41,6 +41,12 @@ pub enum Error {
         /// The host unit.
         unit: &'static str,
     },
+    /// A complementarity solve found no verified answer.
+    #[error("LCP: {0}")]
+    Lcp(#[from] crate::lcp::LcpFailure),
+    /// The simulated peg cannot follow the probe (wedged between probe and fixture).
+    #[error("stuck: {0}")]
+    Stuck(String),
     /// A polygon is not a valid convex polygon.
     #[error("polygon: {0}")]
     Polygon(#[from] crate::geom::PolygonError),

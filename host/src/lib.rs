@@ -6,6 +6,9 @@
 
 pub mod error;
 pub mod geom;
+pub mod lcp;
+pub mod plot;
 pub mod units;
 
 pub use error::Error;
+pub mod sim;

@@ -1,6 +1,8 @@
 //! `mesopush`: the host command line. Thin over `mesopush_host`: each subcommand module parses
 //! its flags, calls the library and prints.
 
+mod cmd_sim;
+
 use clap::{Parser, Subcommand};
 
 /// Design, execute and verify open-loop pushing plans for meso-scale assembly.
@@ -12,9 +14,14 @@ struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    /// Replay a plan in the quasi-static simulator (trajectory CSV, figure, verdict).
+    Sim(cmd_sim::SimArgs),
+}
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    match cli.command {}
+    match &cli.command {
+        Command::Sim(args) => cmd_sim::run(args),
+    }
 }

@@ -1,0 +1,5 @@
+//! Figures a person would rather look at than read (plotters, PNG and SVG).
+
+pub mod fig6;
+
+pub use fig6::{PlanFigure, draw_plan};

@@ -1,0 +1,23 @@
+//! The quasi-static pushing simulator (section II-A and III of the paper): a convex part on a
+//! three-point support, pushed by a probe disc along piecewise-linear paths, touching fixture
+//! walls, advanced by solving the 2.5D mixed LCP of Eq. 7–8 at every step of probe travel.
+
+pub mod contact;
+pub mod fixture;
+pub mod formulate;
+pub mod model;
+pub mod settings;
+pub mod support;
+
+pub use fixture::Fixture;
+pub use model::{Model, Part};
+pub use settings::SimSettings;
+pub use support::SupportDistribution;
+pub mod plan;
+pub mod replay;
+pub mod trajectory;
+pub mod stepper;
+
+pub use plan::Plan;
+pub use replay::{Replay, replay};
+pub use stepper::{SimState, Simulator};

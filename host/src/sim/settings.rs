@@ -1,0 +1,75 @@
+//! Plain-data settings of the quasi-static simulator, with documented defaults and units.
+
+use serde::{Deserialize, Serialize};
+
+/// How the simulator discretises and tolerates (see each field for its unit and default).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimSettings {
+    /// Probe travel per time step while the probe is near the peg, µm. Default 5.
+    pub step_um: f64,
+    /// Number of directions of the linearised friction cone at each support. Default 8.
+    pub n_directions: usize,
+    /// Contacts whose gap is below this enter the step's problem ahead of touching, µm
+    /// (Stewart–Trinkle style, so fast approach never tunnels). Default 30.
+    pub contact_margin_um: f64,
+    /// Penetration that counts as a violation when checked after each step, µm. Default 1.
+    pub penetration_tol_um: f64,
+    /// Upper bound on time steps for one plan replay (a bounded loop). Default 200 000.
+    pub max_steps: usize,
+    /// Viscous regularisation of the support friction: drag, in part weights, of a support
+    /// point moving as fast as the probe. Makes the quasi-static motion unique under the
+    /// linearised friction cone (see `formulate`); small against μ. Default 0.005 (1.7 % of
+    /// a μ = 0.3 surface friction). Scaled per step by 1/`step_um`, so halving the step does
+    /// not change it.
+    pub support_viscosity: f64,
+    /// Compliance of the probe needle along the contact normal, µm of tip deflection per part
+    /// weight of force. A real needle bends a little; with a perfectly rigid probe a peg
+    /// wedged between probe and wall has no quasi-static solution. Default 0.5.
+    pub probe_compliance_um: f64,
+}
+
+impl Default for SimSettings {
+    fn default() -> Self {
+        Self {
+            step_um: 5.0,
+            n_directions: 8,
+            contact_margin_um: 30.0,
+            penetration_tol_um: 1.0,
+            max_steps: 200_000,
+            support_viscosity: 0.005,
+            probe_compliance_um: 0.5,
+        }
+    }
+}
+
+impl SimSettings {
+    /// Checks every field; the error names the field and the rule.
+    pub fn validate(&self) -> Result<(), crate::Error> {
+        use crate::Error;
+        if !(self.step_um.is_finite() && self.step_um > 0.0 && self.step_um <= 100.0) {
+            return Err(Error::invalid("step_um", "must be in (0, 100] µm"));
+        }
+        if !(3..=64).contains(&self.n_directions) {
+            return Err(Error::invalid("n_directions", "must be between 3 and 64"));
+        }
+        if !(self.contact_margin_um.is_finite() && self.contact_margin_um > 0.0) {
+            return Err(Error::invalid("contact_margin_um", "must be > 0"));
+        }
+        if !(self.penetration_tol_um.is_finite() && self.penetration_tol_um > 0.0) {
+            return Err(Error::invalid("penetration_tol_um", "must be > 0"));
+        }
+        let v = self.support_viscosity;
+        if !(v.is_finite() && (0.0..=0.1).contains(&v)) {
+            return Err(Error::invalid("support_viscosity", "must be in [0, 0.1]"));
+        }
+        let c = self.probe_compliance_um;
+        if !(c.is_finite() && (0.0..=1000.0).contains(&c)) {
+            return Err(Error::invalid("probe_compliance_um", "must be in [0, 1000]"));
+        }
+        if self.max_steps == 0 {
+            return Err(Error::invalid("max_steps", "must be > 0"));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,242 @@
+//! One quasi-static time step: find the contacts, build the mixed LCP, solve it and move the
+//! peg. The probe is position-controlled; the peg moves only through its contacts.
+
+use super::contact::{Contact, ContactKind, probe_contact, wall_contacts};
+use super::fixture::Fixture;
+use super::formulate::{Layout, N_SUPPORTS, StepInputs, StepProblem, cone_directions};
+use super::model::Model;
+use super::settings::SimSettings;
+use crate::Error;
+use crate::geom::{Pose, Vec2};
+use crate::lcp::{LcpSettings, LcpSolver, MlcpProblem};
+
+/// The simulated world's state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimState {
+    /// Peg pose.
+    pub peg: Pose,
+    /// Probe tip centre, µm.
+    pub probe_um: Vec2,
+}
+
+/// What one step found (for trajectories and diagnostics).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StepInfo {
+    /// Whether an LCP was solved (false: the probe was clear of the peg).
+    pub solved_lcp: bool,
+    /// Contacts carrying force after the step, with their mode, e.g. `probe:stick`.
+    pub active: Vec<(ContactKind, Mode)>,
+    /// Normal force at the probe, in units of the part's weight.
+    pub probe_force: f64,
+    /// Tangential (friction) force at the probe along t = (−n_y, n_x), part weights.
+    pub probe_friction: f64,
+    /// Whether the probe contact slides (its σ > 0).
+    pub probe_sliding: bool,
+    /// Largest penetration of the peg into a wall after the step, µm (≥ 0).
+    pub penetration_um: f64,
+    /// Probe needle deflection (compliance × force) at the end of the step, µm.
+    pub probe_deflection_um: f64,
+    /// Sub-steps the step was split into (1 when the whole step was accepted).
+    pub substeps: usize,
+    /// LCP pivots used.
+    pub pivots: usize,
+}
+
+/// Contact mode after a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Force, no relative sliding.
+    Stick,
+    /// Force and sliding.
+    Slide,
+}
+
+/// Force or sliding speed below this counts as zero when reporting modes.
+const ACTIVE_EPS: f64 = 1e-9;
+
+/// The simulator: model, fixture, settings and reusable buffers.
+#[derive(Debug)]
+pub struct Simulator {
+    model: Model,
+    fixture: Fixture,
+    settings: SimSettings,
+    support_forces: [f64; N_SUPPORTS],
+    directions: Vec<Vec2>,
+    char_len_um: f64,
+    problem: StepProblem,
+    solver: LcpSolver,
+    contacts: Vec<(Contact, f64)>,
+    scratch: Vec<Contact>,
+}
+
+impl Simulator {
+    /// Validates everything and sizes the buffers.
+    pub fn new(model: Model, fixture: Fixture, settings: SimSettings) -> Result<Self, Error> {
+        settings.validate()?;
+        let support_forces = model.validate()?;
+        let directions = cone_directions(settings.n_directions);
+        let char_len_um = model.part.char_length_um();
+        let capacity = Layout { n_contacts: 16, n_directions: settings.n_directions }.n();
+        Ok(Self {
+            model,
+            fixture,
+            settings,
+            support_forces,
+            directions,
+            char_len_um,
+            problem: StepProblem::default(),
+            solver: LcpSolver::new(capacity, LcpSettings::default()),
+            contacts: Vec::with_capacity(16),
+            scratch: Vec::with_capacity(16),
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+    /// The fixture.
+    pub fn fixture(&self) -> &Fixture {
+        &self.fixture
+    }
+    /// The settings.
+    pub fn settings(&self) -> &SimSettings {
+        &self.settings
+    }
+
+    /// Gap between the probe disc and the peg, µm (negative: penetration).
+    pub fn probe_gap_um(&self, state: &SimState) -> f64 {
+        let peg = self.model.part.polygon().transformed(&state.peg);
+        peg.signed_distance(&state.probe_um) - self.model.probe_radius_um
+    }
+
+    /// Advances the probe by `delta_um` and moves the peg quasi-statically. A step whose peg
+    /// motion would carry a vertex further than the contact margin, or end with the peg in a
+    /// wall beyond the penetration tolerance, is split in halves (at most 2^8 pieces), so fast
+    /// rotations near a pivot cannot tunnel. On failure the state is left unchanged.
+    pub fn step(&mut self, state: &mut SimState, delta_um: Vec2) -> Result<StepInfo, Error> {
+        let start = *state;
+        let mut info = StepInfo::default();
+        match self.step_split(state, delta_um, 0, &mut info) {
+            Ok(()) => Ok(info),
+            Err(e) => {
+                *state = start;
+                Err(e)
+            }
+        }
+    }
+
+    fn step_split(
+        &mut self,
+        state: &mut SimState,
+        delta_um: Vec2,
+        depth: u32,
+        acc: &mut StepInfo,
+    ) -> Result<(), Error> {
+        const MAX_DEPTH: u32 = 8;
+        let before = *state;
+        let info = self.solve_step(state, delta_um)?;
+        let moved = self.max_vertex_motion_um(&before.peg, &state.peg);
+        let pen = self.wall_penetration_um(&state.peg);
+        let bad = moved > self.settings.contact_margin_um || pen > self.settings.penetration_tol_um;
+        if bad {
+            *state = before;
+            if depth == MAX_DEPTH {
+                return Err(Error::Stuck(format!(
+                    "even a {:.4} µm probe step moves a peg vertex {moved:.1} µm (wall \
+                     penetration {pen:.1} µm): the peg is wedged and cannot follow the probe",
+                    delta_um.norm()
+                )));
+            }
+            self.step_split(state, delta_um / 2.0, depth + 1, acc)?;
+            return self.step_split(state, delta_um / 2.0, depth + 1, acc);
+        }
+        acc.solved_lcp |= info.solved_lcp;
+        acc.pivots += info.pivots;
+        acc.substeps += 1;
+        acc.penetration_um = acc.penetration_um.max(pen);
+        acc.active = info.active;
+        acc.probe_force = info.probe_force;
+        acc.probe_friction = info.probe_friction;
+        acc.probe_sliding = info.probe_sliding;
+        acc.probe_deflection_um = info.probe_force * self.settings.probe_compliance_um;
+        Ok(())
+    }
+
+    /// Largest displacement of a peg vertex between two poses, µm.
+    fn max_vertex_motion_um(&self, a: &Pose, b: &Pose) -> f64 {
+        let poly = self.model.part.polygon();
+        poly.vertices()
+            .iter()
+            .map(|v| (a.transform_point(v) - b.transform_point(v)).norm())
+            .fold(0.0, f64::max)
+    }
+
+    /// Deepest penetration of the peg (at `pose`) into any wall, µm (0 when clear).
+    pub fn wall_penetration_um(&mut self, pose: &Pose) -> f64 {
+        let peg = self.model.part.polygon().transformed(pose);
+        self.scratch.clear();
+        wall_contacts(&peg, &self.fixture.walls, 0.0, &mut self.scratch);
+        self.scratch.iter().map(|c| -c.gap_um).fold(0.0, f64::max)
+    }
+
+    /// One step without splitting.
+    fn solve_step(&mut self, state: &mut SimState, delta_um: Vec2) -> Result<StepInfo, Error> {
+        let peg = self.model.part.polygon().transformed(&state.peg);
+        let margin = self.settings.contact_margin_um + delta_um.norm();
+        let r = self.model.probe_radius_um;
+        let mut info = StepInfo::default();
+        let Some(probe) = probe_contact(&peg, &state.probe_um, r, margin) else {
+            state.probe_um += delta_um;
+            return Ok(info);
+        };
+        self.contacts.clear();
+        self.contacts.push((probe, self.model.mu_probe));
+        self.scratch.clear();
+        wall_contacts(&peg, &self.fixture.walls, margin, &mut self.scratch);
+        self.contacts.extend(self.scratch.iter().map(|c| (*c, self.model.mu_wall)));
+        let supports = self.model.support.points().map(|p| state.peg.rotate(&p));
+        let inputs = StepInputs {
+            contacts: &self.contacts,
+            com: state.peg.position(),
+            char_len_um: self.char_len_um,
+            probe_delta_um: delta_um,
+            supports,
+            support_forces: self.support_forces,
+            mu_surface: self.model.support.mu_surface,
+            directions: &self.directions,
+            viscosity: self.settings.support_viscosity / self.settings.step_um,
+            probe_compliance_um: self.settings.probe_compliance_um,
+        };
+        let lay = self.problem.build(&inputs);
+        let problem =
+            MlcpProblem { n_free: 3, n: lay.n(), m: &self.problem.m, q: &self.problem.q };
+        let sol = self.solver.solve(&problem).map_err(Error::Lcp)?;
+        let z = sol.z;
+        info.solved_lcp = true;
+        info.pivots = sol.pivots;
+        info.probe_force = z[lay.normal(0)];
+        info.probe_friction = z[lay.planar_friction(0, 0)] - z[lay.planar_friction(0, 1)];
+        info.probe_sliding = z[lay.planar_sigma(0)] > ACTIVE_EPS;
+        for (i, (c, _)) in self.contacts.iter().enumerate() {
+            if z[lay.normal(i)] > ACTIVE_EPS {
+                let mode = if z[lay.planar_sigma(i)] > ACTIVE_EPS { Mode::Slide } else { Mode::Stick };
+                info.active.push((c.kind, mode));
+            }
+        }
+        state.peg.x_um += z[0];
+        state.peg.y_um += z[1];
+        state.peg.theta_rad += z[2] / self.char_len_um;
+        state.probe_um += delta_um;
+        Ok(info)
+    }
+}
+
+/// Short label of a contact for CSV columns, e.g. `probe`, `wall2v` (peg vertex on wall 2).
+pub fn contact_label(kind: ContactKind) -> String {
+    match kind {
+        ContactKind::Probe => "probe".into(),
+        ContactKind::Wall { wall, peg_vertex: true } => format!("wall{wall}v"),
+        ContactKind::Wall { wall, peg_vertex: false } => format!("wall{wall}e"),
+    }
+}
