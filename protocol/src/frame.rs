@@ -1,0 +1,148 @@
+//! Frames: how one message travels over a byte stream.
+//!
+//! A frame is the postcard encoding of [`Frame`] (kind, sequence number, cumulative ack and,
+//! for data frames, the message), followed by the CRC-32/ISO-HDLC of those bytes in little
+//! endian, all COBS-stuffed and terminated by one `0x00` delimiter. The decoder is strict: it
+//! accepts only the exact bytes the encoder produces (canonical stuffing, matching CRC, no
+//! trailing bytes), so a damaged frame is rejected rather than misread.
+
+use crate::error::WireError;
+use crate::flash::CRC32;
+use crate::max_size::{MaxSize, discriminant_bytes, max};
+use crate::{CtrlToExec, ExecToCtrl, ExecToHost, HostToExec};
+use cobs::{EncoderState, PushResult};
+use postcard::ser_flavors::crc::CrcModifier;
+use postcard::ser_flavors::{Cobs, Slice};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+/// Size of every frame buffer, bytes, delimiter included. All messages fit (checked at
+/// compile time below).
+pub const FRAME_BUF_LEN: usize = 256;
+/// Bytes of CRC-32 appended to each frame body.
+pub const CRC_LEN_BYTES: usize = 4;
+/// The frame delimiter.
+pub const FRAME_DELIMITER: u8 = 0x00;
+
+/// One frame of the reliable link. Sequence numbers count data frames modulo 2^16;
+/// `ack` is cumulative: the sequence number the sender expects next from its peer.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Frame<M> {
+    /// A message with its sequence number and a piggy-backed ack.
+    Data {
+        /// Sequence number of this data frame.
+        seq: u16,
+        /// Next sequence number expected from the peer.
+        ack: u16,
+        /// The message.
+        msg: M,
+    },
+    /// Acknowledges every data frame before `ack`.
+    Ack {
+        /// Next sequence number expected from the peer.
+        ack: u16,
+    },
+    /// A damaged or out-of-order frame arrived: resend from `ack` on.
+    Nack {
+        /// Next sequence number expected from the peer.
+        ack: u16,
+    },
+}
+
+impl<M: MaxSize> MaxSize for Frame<M> {
+    const MAX_SIZE: usize = discriminant_bytes(3) + max(2 * u16::MAX_SIZE + M::MAX_SIZE, 3);
+}
+
+/// Worst-case length of the stuffed frame for a body of `body_len` bytes: the CRC, one COBS
+/// code byte plus one per 254 bytes, and the delimiter.
+pub const fn stuffed_len_max(body_len: usize) -> usize {
+    let raw = body_len + CRC_LEN_BYTES;
+    raw + 1 + raw / 254 + 1
+}
+
+/// Worst-case length of any frame carrying an `M`, delimiter included.
+pub const fn frame_len_max<M: MaxSize>() -> usize {
+    stuffed_len_max(Frame::<M>::MAX_SIZE)
+}
+
+const _: () = assert!(frame_len_max::<HostToExec>() <= FRAME_BUF_LEN);
+const _: () = assert!(frame_len_max::<ExecToHost>() <= FRAME_BUF_LEN);
+const _: () = assert!(frame_len_max::<ExecToCtrl>() <= FRAME_BUF_LEN);
+const _: () = assert!(frame_len_max::<CtrlToExec>() <= FRAME_BUF_LEN);
+
+/// Compile-time proof, per message type, that its frames fit [`FRAME_BUF_LEN`].
+struct FitsFrameBuf<M>(core::marker::PhantomData<M>);
+
+impl<M: MaxSize> FitsFrameBuf<M> {
+    const OK: () = assert!(frame_len_max::<M>() <= FRAME_BUF_LEN, "message too large for a frame");
+}
+
+/// Encodes `frame` into `buf` and returns the bytes to send, delimiter included.
+pub fn encode_frame<'b, M: Serialize + MaxSize>(
+    frame: &Frame<M>,
+    buf: &'b mut [u8],
+) -> Result<&'b [u8], WireError> {
+    let () = FitsFrameBuf::<M>::OK;
+    let cobs = Cobs::try_new(Slice::new(buf)).map_err(|_| WireError::BufferTooSmall)?;
+    let flavor = CrcModifier::new(cobs, CRC32.digest());
+    match postcard::serialize_with_flavor(frame, flavor) {
+        Ok(bytes) => Ok(bytes),
+        Err(postcard::Error::SerializeBufferFull) => Err(WireError::BufferTooSmall),
+        Err(_) => Err(WireError::Malformed),
+    }
+}
+
+/// Decodes one frame. `buf` holds the stuffed bytes, with or without the trailing delimiter,
+/// and is unstuffed in place.
+pub fn decode_frame<M: DeserializeOwned>(buf: &mut [u8]) -> Result<Frame<M>, WireError> {
+    let stuffed_len = match buf.split_last() {
+        None => return Err(WireError::EmptyFrame),
+        Some((&FRAME_DELIMITER, rest)) => rest.len(),
+        Some(_) => buf.len(),
+    };
+    if buf.len() > FRAME_BUF_LEN {
+        return Err(WireError::FrameTooLong { len_bytes: buf.len() });
+    }
+    if stuffed_len == 0 {
+        return Err(WireError::EmptyFrame);
+    }
+    let stuffed = &mut buf[..stuffed_len];
+    if stuffed.contains(&FRAME_DELIMITER) {
+        return Err(WireError::BadStuffing);
+    }
+    let report = cobs::decode_in_place_report(stuffed).map_err(|_| WireError::BadStuffing)?;
+    let raw = stuffed.get(..report.dst_used).ok_or(WireError::BadStuffing)?;
+    if report.src_used != stuffed_len || canonical_stuffed_len(raw) != stuffed_len {
+        return Err(WireError::BadStuffing);
+    }
+    let Some(body_len) = raw.len().checked_sub(CRC_LEN_BYTES).filter(|&n| n > 0) else {
+        return Err(WireError::TooShort { len_bytes: raw.len() });
+    };
+    let (body, crc_bytes) = raw.split_at(body_len);
+    let mut crc_le = [0u8; CRC_LEN_BYTES];
+    crc_le.copy_from_slice(crc_bytes);
+    let received_crc32 = u32::from_le_bytes(crc_le);
+    let computed_crc32 = CRC32.checksum(body);
+    if received_crc32 != computed_crc32 {
+        return Err(WireError::CrcMismatch { received_crc32, computed_crc32 });
+    }
+    let (frame, rest) = postcard::take_from_bytes(body).map_err(|_| WireError::Malformed)?;
+    if !rest.is_empty() {
+        return Err(WireError::TrailingBytes { extra_bytes: rest.len() });
+    }
+    Ok(frame)
+}
+
+/// Length, without delimiter, of the COBS stuffing the encoder produces for `raw`: one code
+/// byte up front plus one byte per input byte plus one code byte per completed 254-byte run.
+fn canonical_stuffed_len(raw: &[u8]) -> usize {
+    let mut state = EncoderState::default();
+    let mut len = 1;
+    for &byte in raw {
+        len += match state.push(byte) {
+            PushResult::AddSingle(_) | PushResult::ModifyFromStartAndSkip(_) => 1,
+            PushResult::ModifyFromStartAndPushAndSkip(_) => 2,
+        };
+    }
+    len
+}
