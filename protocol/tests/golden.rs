@@ -1,0 +1,132 @@
+//! Golden-byte vectors: the exact bytes of one frame per message variant are committed in
+//! `tests/golden/frames.txt`; any change to the wire format fails here.
+//!
+//! To accept an intended change, run with `MESOPUSH_BLESS=1`. Blessing refuses when bytes
+//! changed but `SCHEMA_HASH` did not, because peers would then accept each other's handshake
+//! while disagreeing on the format: edit `SCHEMA` in `src/lib.rs` first. When only the
+//! sample values in `tests/common` changed, `MESOPUSH_BLESS=force` skips that guard.
+
+mod common;
+
+use mesopush_protocol::{
+    CtrlToExec, ExecToCtrl, ExecToHost, Frame, HostToExec, SCHEMA_HASH, decode_frame,
+};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+fn golden_path() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden/frames.txt")
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().fold(String::new(), |mut s, b| {
+        let _ = write!(s, "{b:02x}");
+        s
+    })
+}
+
+fn unhex(text: &str) -> Vec<u8> {
+    (0..text.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&text[i..i + 2], 16).expect("golden file holds hex"))
+        .collect()
+}
+
+struct Golden {
+    schema_hash: Option<u32>,
+    frames: BTreeMap<String, Vec<u8>>,
+}
+
+fn read_golden() -> Golden {
+    let text = std::fs::read_to_string(golden_path()).unwrap_or_default();
+    let mut golden = Golden { schema_hash: None, frames: BTreeMap::new() };
+    for line in text.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty()) {
+        let (name, value) = line.split_once(' ').expect("lines are `name value`");
+        if name == "schema_hash" {
+            let digits = value.trim_start_matches("0x");
+            golden.schema_hash = Some(u32::from_str_radix(digits, 16).expect("hex schema hash"));
+        } else {
+            golden.frames.insert(name.to_string(), unhex(value.trim()));
+        }
+    }
+    golden
+}
+
+fn write_golden(frames: &[(String, Vec<u8>)]) {
+    let mut text = String::from(
+        "# Golden frames: `name hex`, one data/ack/nack frame per message variant.\n\
+         # Regenerate with MESOPUSH_BLESS=1 cargo test -p mesopush-protocol --test golden\n",
+    );
+    let _ = writeln!(text, "schema_hash {SCHEMA_HASH:#010x}");
+    for (name, bytes) in frames {
+        let _ = writeln!(text, "{name} {}", hex(bytes));
+    }
+    std::fs::create_dir_all(golden_path().parent().expect("has parent")).expect("mkdir");
+    std::fs::write(golden_path(), text).expect("write golden file");
+}
+
+#[test]
+fn frames_match_golden_vectors() {
+    let current = common::all_sample_frames();
+    let golden = read_golden();
+    let changed: Vec<&str> = current
+        .iter()
+        .filter(|(name, bytes)| golden.frames.get(name) != Some(bytes))
+        .map(|(name, _)| name.as_str())
+        .collect();
+    let removed: Vec<&String> =
+        golden.frames.keys().filter(|k| !current.iter().any(|(n, _)| n == *k)).collect();
+    if let Some(bless) = std::env::var_os("MESOPUSH_BLESS") {
+        let bytes_changed = changed.iter().any(|n| golden.frames.contains_key(*n));
+        assert!(
+            bless == "force" || !(bytes_changed && golden.schema_hash == Some(SCHEMA_HASH)),
+            "wire bytes of {changed:?} changed but SCHEMA_HASH did not: update SCHEMA in \
+             src/lib.rs (or, if only sample values in tests/common changed, MESOPUSH_BLESS=force)"
+        );
+        write_golden(&current);
+        return;
+    }
+    assert_eq!(golden.schema_hash, Some(SCHEMA_HASH), "SCHEMA changed: re-bless the vectors");
+    assert!(
+        changed.is_empty() && removed.is_empty(),
+        "wire format changed for {changed:?}, vectors without a sample {removed:?}; \
+         if intended, update SCHEMA and run with MESOPUSH_BLESS=1"
+    );
+}
+
+/// The committed bytes decode to the sample values, so a decoder change that still encodes
+/// identically but reads differently is caught too.
+#[test]
+fn golden_vectors_decode_to_samples() {
+    let golden = read_golden();
+    let bytes_of = |name: &str| golden.frames.get(name).cloned().expect("vector exists");
+    for (name, msg) in common::host_to_exec() {
+        let frame = decode_frame::<HostToExec>(&mut bytes_of(name));
+        assert_eq!(frame, Ok(Frame::Data { seq: 1, ack: 2, msg }), "{name}");
+    }
+    for (name, msg) in common::exec_to_host() {
+        let frame = decode_frame::<ExecToHost>(&mut bytes_of(&name));
+        assert_eq!(frame, Ok(Frame::Data { seq: 300, ack: 65_535, msg }), "{name}");
+    }
+    for (name, msg) in common::exec_to_ctrl() {
+        let frame = decode_frame::<ExecToCtrl>(&mut bytes_of(name));
+        assert_eq!(frame, Ok(Frame::Data { seq: 65_535, ack: 0, msg }), "{name}");
+    }
+    for (name, msg) in common::ctrl_to_exec() {
+        let frame = decode_frame::<CtrlToExec>(&mut bytes_of(&name));
+        assert_eq!(frame, Ok(Frame::Data { seq: 5, ack: 6, msg }), "{name}");
+    }
+    let ack = decode_frame::<CtrlToExec>(&mut bytes_of("link.ack"));
+    assert_eq!(ack, Ok(Frame::Ack { ack: 513 }));
+    let nack = decode_frame::<HostToExec>(&mut bytes_of("link.nack"));
+    assert_eq!(nack, Ok(Frame::Nack { ack: 7 }));
+}
+
+/// Names are unique, so no vector silently shadows another.
+#[test]
+fn sample_names_are_unique() {
+    let frames = common::all_sample_frames();
+    let names: std::collections::BTreeSet<&String> = frames.iter().map(|(n, _)| n).collect();
+    assert_eq!(names.len(), frames.len());
+}
