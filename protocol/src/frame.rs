@@ -146,3 +146,39 @@ fn canonical_stuffed_len(raw: &[u8]) -> usize {
     }
     len
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The unstuffer also accepts a 254-byte zero-free run without its trailing code byte,
+    /// a second spelling of the same bytes; the canonical length tells the two apart. (Frames
+    /// of today's messages are too short to contain such a run, so this guards future sizes.)
+    #[test]
+    fn canonical_length_rejects_missing_trailing_code_byte() {
+        let raw = [0x5Au8; 254];
+        let mut short_spelling = [0x5Au8; 255];
+        short_spelling[0] = 0xFF;
+        let report = cobs::decode_in_place_report(&mut short_spelling).expect("unstuffs");
+        assert_eq!((report.src_used, report.dst_used), (255, 254));
+        assert_eq!(&short_spelling[..254], &raw[..]);
+        assert_eq!(canonical_stuffed_len(&raw), 256, "encoder adds a trailing 0x01 code byte");
+    }
+
+    #[test]
+    fn canonical_length_matches_encoder_output() {
+        let mut buf = [0u8; FRAME_BUF_LEN];
+        for (i, msg) in [[0u8, 0, 0], [1, 0, 2], [1, 2, 3], [0, 9, 0]].iter().enumerate() {
+            let frame = Frame::Data { seq: i as u16, ack: 0, msg: *msg };
+            let stuffed = encode_frame(&frame, &mut buf).expect("fits").to_vec();
+            let mut raw = stuffed.clone();
+            let report = cobs::decode_in_place_report(&mut raw).expect("unstuffs");
+            let stuffed_len = stuffed.len() - 1;
+            assert_eq!(canonical_stuffed_len(&raw[..report.dst_used]), stuffed_len);
+        }
+    }
+
+    impl MaxSize for [u8; 3] {
+        const MAX_SIZE: usize = 3;
+    }
+}
