@@ -88,6 +88,34 @@ fn all_flash_rejects() -> Vec<(&'static str, FlashRejectReason)> {
     ]
 }
 
+/// One `Status` sample per executor state.
+fn exec_statuses() -> Vec<(String, ExecToHost)> {
+    let mut out = Vec::new();
+    let states = [
+        ExecState::Idle,
+        ExecState::Flashing,
+        ExecState::PlanFlashed,
+        ExecState::Armed,
+        ExecState::Running,
+        ExecState::Done,
+        ExecState::Aborted,
+        ExecState::Faulted,
+    ];
+    for (i, state) in states.into_iter().enumerate() {
+        let last_fault = (state == ExecState::Faulted).then_some(TrialFault::ClockSyncLost);
+        let status = ExecStatus {
+            exec_time_us: 123_456_789,
+            state,
+            plan_id: (i > 0).then_some(7),
+            step_count: 40,
+            step_index: i as u32,
+            last_fault,
+        };
+        out.push((format!("exec.status.{state:?}").to_lowercase(), ExecToHost::Status(status)));
+    }
+    out
+}
+
 /// One sample of every `ExecToHost` variant (and of every nested enum variant), named.
 pub fn exec_to_host() -> Vec<(String, ExecToHost)> {
     let mut out: Vec<(String, ExecToHost)> = vec![
@@ -115,28 +143,7 @@ pub fn exec_to_host() -> Vec<(String, ExecToHost)> {
     for (name, reason) in rejects {
         out.push((format!("exec.command_rejected.{name}"), ExecToHost::CommandRejected(reason)));
     }
-    let states = [
-        ExecState::Idle,
-        ExecState::Flashing,
-        ExecState::PlanFlashed,
-        ExecState::Armed,
-        ExecState::Running,
-        ExecState::Done,
-        ExecState::Aborted,
-        ExecState::Faulted,
-    ];
-    for (i, state) in states.into_iter().enumerate() {
-        let last_fault = (state == ExecState::Faulted).then_some(TrialFault::ClockSyncLost);
-        let status = ExecStatus {
-            exec_time_us: 123_456_789,
-            state,
-            plan_id: (i > 0).then_some(7),
-            step_count: 40,
-            step_index: i as u32,
-            last_fault,
-        };
-        out.push((format!("exec.status.{state:?}").to_lowercase(), ExecToHost::Status(status)));
-    }
+    out.extend(exec_statuses());
     out.push(("exec.trial.started".into(), trial(TrialEventKind::Started)));
     out.push(("exec.trial.done".into(), trial(TrialEventKind::Done)));
     out.push(("exec.trial.aborted".into(), trial(TrialEventKind::Aborted)));
