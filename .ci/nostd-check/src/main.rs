@@ -16,7 +16,9 @@ use mesopush_executor as _;
 use core::hint::black_box;
 use mesopush_protocol::ctrl::{CtrlToExec, ExecToCtrl, MoveSegment};
 use mesopush_protocol::flash::{FlashHeader, image_crc32};
-use mesopush_protocol::{FRAME_BUF_LEN, Frame, FrameReader, Link, LinkConfig, decode_frame, encode_frame};
+use mesopush_protocol::{
+    FRAME_BUF_LEN, Frame, FrameReader, Link, LinkConfig, decode_frame, encode_frame,
+};
 
 #[panic_handler]
 fn panic(_info: &core::panic::PanicInfo) -> ! {
