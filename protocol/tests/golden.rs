@@ -130,3 +130,67 @@ fn sample_names_are_unique() {
     let names: std::collections::BTreeSet<&String> = frames.iter().map(|(n, _)| n).collect();
     assert_eq!(names.len(), frames.len());
 }
+
+/// Index of each variant. The matches are exhaustive, so a new variant does not compile
+/// until it is listed here, and the test below then fails until a sample covers it.
+fn host_variant(m: &HostToExec) -> usize {
+    match m {
+        HostToExec::Hello(_) => 0,
+        HostToExec::FlashBegin(_) => 1,
+        HostToExec::FlashChunk(_) => 2,
+        HostToExec::FlashCommit { .. } => 3,
+        HostToExec::Arm { .. } => 4,
+        HostToExec::Start { .. } => 5,
+        HostToExec::Abort => 6,
+        HostToExec::StatusQuery => 7,
+        HostToExec::Heartbeat { .. } => 8,
+    }
+}
+
+fn exec_variant(m: &ExecToHost) -> usize {
+    match m {
+        ExecToHost::HelloReply { .. } => 0,
+        ExecToHost::FlashProgress { .. } => 1,
+        ExecToHost::FlashAccepted { .. } => 2,
+        ExecToHost::FlashRejected { .. } => 3,
+        ExecToHost::CommandRejected(_) => 4,
+        ExecToHost::Status(_) => 5,
+        ExecToHost::Trial(_) => 6,
+        ExecToHost::Frame(_) => 7,
+        ExecToHost::Telemetry(_) => 8,
+    }
+}
+
+fn ctrl_cmd_variant(m: &ExecToCtrl) -> usize {
+    match m {
+        ExecToCtrl::Move(_) => 0,
+        ExecToCtrl::Stop => 1,
+        ExecToCtrl::ClockSyncQuery { .. } => 2,
+        ExecToCtrl::StatusQuery => 3,
+        ExecToCtrl::Heartbeat { .. } => 4,
+        ExecToCtrl::ClearFault => 5,
+    }
+}
+
+fn ctrl_variant(m: &CtrlToExec) -> usize {
+    match m {
+        CtrlToExec::Position(_) => 0,
+        CtrlToExec::Status(_) => 1,
+        CtrlToExec::ClockSyncReply { .. } => 2,
+        CtrlToExec::Heartbeat { .. } => 3,
+        CtrlToExec::Fault(_) => 4,
+    }
+}
+
+fn covered(indices: impl Iterator<Item = usize>) -> std::collections::BTreeSet<usize> {
+    indices.collect()
+}
+
+#[test]
+fn samples_cover_every_top_level_variant() {
+    let all = |n: usize| (0..n).collect::<std::collections::BTreeSet<_>>();
+    assert_eq!(covered(common::host_to_exec().iter().map(|(_, m)| host_variant(m))), all(9));
+    assert_eq!(covered(common::exec_to_host().iter().map(|(_, m)| exec_variant(m))), all(9));
+    assert_eq!(covered(common::exec_to_ctrl().iter().map(|(_, m)| ctrl_cmd_variant(m))), all(6));
+    assert_eq!(covered(common::ctrl_to_exec().iter().map(|(_, m)| ctrl_variant(m))), all(5));
+}
