@@ -8,6 +8,11 @@
 //! next expected frame, re-acks duplicates and nacks gaps and damaged frames; the sender
 //! keeps at most `WINDOW` unacknowledged messages, resends all of them when the oldest times
 //! out or is nacked, and declares the link down after a bounded number of transmissions.
+//!
+//! A peer that restarts begins again at sequence 0; its frames then look stale, this end
+//! reports [`LinkDown`] within the retry bound, and the caller answers every `LinkDown` with
+//! [`Link::reset`]. Delivery is never duplicated or reordered, but messages queued around a
+//! restart may be lost, so callers treat `LinkDown` as a fault and redo their handshake.
 
 use crate::error::WireError;
 use crate::frame::{Frame, decode_frame};

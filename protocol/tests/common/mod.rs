@@ -2,6 +2,7 @@
 //! corruption test start from these) and proptest strategies covering every type.
 #![allow(dead_code, unreachable_pub)]
 
+pub mod channel;
 pub mod strategies;
 
 use mesopush_protocol::ctrl::{
