@@ -29,7 +29,7 @@ fuzz_target!(|data: &[u8]| {
     check::<CtrlToExec>(data);
 
     let mut reader = FrameReader::<FRAME_BUF_LEN>::new();
-    let mut link = Link::<ExecToCtrl, CtrlToExec, 4>::new(LinkConfig::DEFAULT);
+    let mut link = Link::<ExecToCtrl, CtrlToExec, 4>::new(LinkConfig::DEFAULT, 1);
     for (i, &byte) in data.iter().enumerate() {
         if let Some(Ok(frame)) = reader.push_byte(byte) {
             let _ = link.on_bytes(i as u64 * 100, frame);

@@ -1,14 +1,15 @@
 //! Frames: how one message travels over a byte stream.
 //!
-//! A frame is the postcard encoding of [`Frame`] (kind, sequence number, cumulative ack and,
-//! for data frames, the message), followed by the CRC-32/ISO-HDLC of those bytes in little
-//! endian, all COBS-stuffed and terminated by one `0x00` delimiter. The decoder is strict: it
+//! A frame is the postcard encoding of [`Frame`] (sender and receiver sessions, cumulative
+//! ack, kind and, for data frames, sequence number and message), followed by the
+//! CRC-32/ISO-HDLC of those bytes in little endian, all COBS-stuffed and terminated by one
+//! `0x00` delimiter. The decoder is strict: it
 //! accepts only the exact bytes the encoder produces (canonical stuffing, matching CRC, no
 //! trailing bytes), so a damaged frame is rejected rather than misread.
 
 use crate::error::WireError;
 use crate::flash::CRC32;
-use crate::max_size::{MaxSize, discriminant_bytes, max};
+use crate::max_size::{MaxSize, discriminant_bytes};
 use crate::{CtrlToExec, ExecToCtrl, ExecToHost, HostToExec};
 use cobs::{EncoderState, PushResult};
 use postcard::ser_flavors::crc::CrcModifier;
@@ -24,33 +25,57 @@ pub const CRC_LEN_BYTES: usize = 4;
 /// The frame delimiter.
 pub const FRAME_DELIMITER: u8 = 0x00;
 
-/// One frame of the reliable link. Sequence numbers count data frames modulo 2^16;
-/// `ack` is cumulative: the sequence number the sender expects next from its peer.
+/// One frame of the reliable link.
+///
+/// Sessions tell link instances apart across restarts: each instance has a `u16` session id
+/// chosen by its owner (e.g. a boot counter), and frames name both the sender's session and
+/// the receiver's as last heard, so frames addressed to a previous life are recognised.
+/// Sequence numbers count data frames modulo 2^16; `ack` is cumulative.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Frame<M> {
-    /// A message with its sequence number and a piggy-backed ack.
+pub struct Frame<M> {
+    /// Session of the sending link instance.
+    pub sender_session: u16,
+    /// Session of the receiving instance as last heard by the sender (`None` before the
+    /// sender has heard from it).
+    pub receiver_session: Option<u16>,
+    /// Next data sequence number the sender expects from the receiver.
+    pub ack: u16,
+    /// What the frame carries.
+    pub kind: FrameKind<M>,
+}
+
+/// The kind of a [`Frame`] and its payload.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum FrameKind<M> {
+    /// A message with its sequence number.
     Data {
         /// Sequence number of this data frame.
         seq: u16,
-        /// Next sequence number expected from the peer.
-        ack: u16,
         /// The message.
         msg: M,
     },
     /// Acknowledges every data frame before `ack`.
-    Ack {
-        /// Next sequence number expected from the peer.
-        ack: u16,
-    },
-    /// A damaged or out-of-order frame arrived: resend from `ack` on.
-    Nack {
-        /// Next sequence number expected from the peer.
-        ack: u16,
-    },
+    Ack,
+    /// A damaged, out-of-order or misaddressed frame arrived: resend from `ack` on.
+    Nack,
+}
+
+impl<M> Frame<M> {
+    /// The message, if this is a data frame.
+    pub fn into_msg(self) -> Option<M> {
+        match self.kind {
+            FrameKind::Data { msg, .. } => Some(msg),
+            FrameKind::Ack | FrameKind::Nack => None,
+        }
+    }
+}
+
+impl<M: MaxSize> MaxSize for FrameKind<M> {
+    const MAX_SIZE: usize = discriminant_bytes(3) + u16::MAX_SIZE + M::MAX_SIZE;
 }
 
 impl<M: MaxSize> MaxSize for Frame<M> {
-    const MAX_SIZE: usize = discriminant_bytes(3) + max(2 * u16::MAX_SIZE + M::MAX_SIZE, 3);
+    const MAX_SIZE: usize = 2 * u16::MAX_SIZE + <Option<u16>>::MAX_SIZE + FrameKind::<M>::MAX_SIZE;
 }
 
 /// Worst-case length of the stuffed frame for a body of `body_len` bytes: the CRC, one COBS
@@ -169,7 +194,8 @@ mod tests {
     fn canonical_length_matches_encoder_output() {
         let mut buf = [0u8; FRAME_BUF_LEN];
         for (i, msg) in [[0u8, 0, 0], [1, 0, 2], [1, 2, 3], [0, 9, 0]].iter().enumerate() {
-            let frame = Frame::Data { seq: i as u16, ack: 0, msg: *msg };
+            let kind = FrameKind::Data { seq: i as u16, msg: *msg };
+            let frame = Frame { sender_session: 1, receiver_session: None, ack: 0, kind };
             let stuffed = encode_frame(&frame, &mut buf).expect("fits").to_vec();
             let mut raw = stuffed.clone();
             let report = cobs::decode_in_place_report(&mut raw).expect("unstuffs");

@@ -10,7 +10,8 @@
 //! - Framing ([`frame`]): postcard body, CRC-32/ISO-HDLC, COBS stuffing, `0x00` delimiter,
 //!   at most [`FRAME_BUF_LEN`] bytes, with a compile-time bound ([`MaxSize`]) per message.
 //! - Reliability ([`link`]): a sans-IO go-back-N link with cumulative acks, nacks, a bounded
-//!   retransmit window and timeouts on the caller's clock, used by both ends.
+//!   retransmit window, timeouts on the caller's clock and session ids that resynchronise
+//!   after a peer restarts, used by both ends.
 //!
 //! # Versioning
 //! Peers exchange [`host::Hello`] with [`PROTOCOL_VERSION`] and [`SCHEMA_HASH`] and refuse
@@ -33,7 +34,7 @@ pub mod reader;
 
 pub use ctrl::{CtrlToExec, ExecToCtrl};
 pub use error::WireError;
-pub use frame::{FRAME_BUF_LEN, Frame, decode_frame, encode_frame};
+pub use frame::{FRAME_BUF_LEN, Frame, FrameKind, decode_frame, encode_frame};
 pub use host::{ExecToHost, HostToExec};
 pub use link::{Link, LinkConfig, LinkDown, LinkStats};
 pub use max_size::MaxSize;
@@ -45,7 +46,7 @@ pub const PROTOCOL_VERSION: u16 = 1;
 /// Description of every wire type, in encoding order. Edit it with every change to a type in
 /// [`host`], [`ctrl`], [`flash`] or [`frame`]; [`SCHEMA_HASH`] is derived from it.
 pub const SCHEMA: &str = "\
-frame: Frame<M>=Data{seq:u16,ack:u16,msg:M}|Ack{ack:u16}|Nack{ack:u16}; crc32-iso-hdlc-le; cobs; 0x00
+frame: Frame<M>{sender_session:u16,receiver_session:Option<u16>,ack:u16,kind:FrameKind<M>}; FrameKind<M>=Data{seq:u16,msg:M}|Ack|Nack; crc32-iso-hdlc-le; cobs; 0x00
 flash: FlashHeader{format_version:u16,plan_id:u32,step_count:u32,image_len_bytes:u32,image_crc32:u32}
 flash: FlashChunk{plan_id:u32,offset_bytes:u32,data:Vec<u8,192>}
 flash: PlanStep{dx_nm:i32,dy_nm:i32,speed_nm_s:u32} image=le-fixed-12

@@ -7,36 +7,44 @@
 //! data frames carry a sequence number and a cumulative ack; the receiver delivers only the
 //! next expected frame, re-acks duplicates and nacks gaps and damaged frames; the sender
 //! keeps at most `WINDOW` unacknowledged messages, resends all of them when the oldest times
-//! out or is nacked, and declares the link down after a bounded number of transmissions.
+//! out or is nacked, and declares the link down after a bounded number of timeouts without
+//! progress.
 //!
-//! A peer that restarts begins again at sequence 0; its frames then look stale, this end
-//! reports [`LinkDown`] within the retry bound, and the caller answers every `LinkDown` with
-//! [`Link::reset`]. Delivery is never duplicated or reordered, but messages queued around a
-//! restart may be lost, so callers treat `LinkDown` as a fault and redo their handshake.
+//! Restarts: every link instance has a session id chosen by its owner (a boot counter is
+//! enough: it only has to differ from the previous life's). Frames name the sender's session
+//! and the receiver's as last heard. A frame addressed to an earlier session of ours is stale:
+//! it is dropped and answered with a nack that announces our session. When the peer's
+//! session changes the peer has restarted: we restart our receive numbering, renumber our
+//! unacknowledged messages from 0 and resend them, and count it in [`LinkStats`]. Messages
+//! the old peer received but had not acknowledged are therefore delivered again to the new
+//! one; nothing is lost on our side of a peer restart.
 
 use crate::error::WireError;
-use crate::frame::{Frame, decode_frame};
+use crate::frame::{Frame, FrameKind, decode_frame};
 use heapless::Deque;
 use serde::de::DeserializeOwned;
 
 /// Timing and retry settings of a [`Link`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LinkConfig {
-    /// Time after the last transmission of the oldest unacked frame before the window is
-    /// resent, µs. Default 20 ms: several round trips of a 1 Mbaud line with a full window.
+    /// Time after a timeout-driven (or first) transmission of the oldest unacked frame
+    /// before the window is resent, µs. Nack-driven resends do not move this deadline, so a
+    /// peer that keeps nacking without acking still times out. Default 20 ms: several round
+    /// trips of a 1 Mbaud line with a full window.
     pub retransmit_timeout_us: u64,
     /// Minimum time between a transmission and a nack-triggered resend of the same window,
     /// µs, so a burst of nacks triggers one resend. Default 5 ms.
     pub nack_holdoff_us: u64,
-    /// Transmissions of one frame (first send included) before the link is declared down.
-    /// Default 8.
-    pub max_transmissions: u8,
+    /// Consecutive retransmission timeouts of the oldest unacked frame before the link is
+    /// declared down: the link goes down `max_timeouts × retransmit_timeout_us` after the
+    /// first send of a frame that is never acknowledged. Default 8 (160 ms).
+    pub max_timeouts: u8,
 }
 
 impl LinkConfig {
     /// The documented defaults.
     pub const DEFAULT: Self =
-        Self { retransmit_timeout_us: 20_000, nack_holdoff_us: 5_000, max_transmissions: 8 };
+        Self { retransmit_timeout_us: 20_000, nack_holdoff_us: 5_000, max_timeouts: 8 };
 }
 
 impl Default for LinkConfig {
@@ -45,12 +53,14 @@ impl Default for LinkConfig {
     }
 }
 
-/// The link gave up: a frame went unacknowledged through all its transmissions.
+/// The link gave up: a frame went unacknowledged through `max_timeouts` timeouts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LinkDown {
     /// Sequence number of the frame that was never acknowledged.
     pub seq: u16,
-    /// How many times it was sent.
+    /// Timeouts it went through.
+    pub timeouts: u8,
+    /// Times it was sent (timeout- and nack-driven resends included).
     pub transmissions: u8,
 }
 
@@ -67,6 +77,11 @@ pub struct LinkStats {
     pub corrupt: u64,
     /// Data frames sent again.
     pub retransmissions: u64,
+    /// Frames addressed to an earlier session of this link, or from an earlier session of
+    /// the peer, dropped.
+    pub stale: u64,
+    /// Times the peer's session changed (the peer restarted).
+    pub peer_restarts: u64,
 }
 
 #[derive(Debug)]
@@ -74,6 +89,8 @@ struct Pending<Tx> {
     seq: u16,
     msg: Tx,
     last_sent_us: Option<u64>,
+    deadline_us: Option<u64>,
+    timeouts: u8,
     transmissions: u8,
     due: bool,
 }
@@ -82,6 +99,9 @@ struct Pending<Tx> {
 #[derive(Debug)]
 pub struct Link<Tx, Rx, const WINDOW: usize> {
     config: LinkConfig,
+    session: u16,
+    peer_session: Option<u16>,
+    prev_peer_session: Option<u16>,
     window: Deque<Pending<Tx>, WINDOW>,
     next_tx_seq: u16,
     rx_next_seq: u16,
@@ -102,11 +122,15 @@ fn seq_before(a: u16, b: u16) -> bool {
 impl<Tx, Rx: DeserializeOwned, const WINDOW: usize> Link<Tx, Rx, WINDOW> {
     const WINDOW_OK: () = assert!(WINDOW > 0 && WINDOW <= 1 << 14, "WINDOW must be 1..=16384");
 
-    /// A fresh link; both peers start at sequence number 0.
-    pub const fn new(config: LinkConfig) -> Self {
+    /// A fresh link with session id `session`, which must differ from the session of this
+    /// endpoint's previous life (a boot counter will do).
+    pub const fn new(config: LinkConfig, session: u16) -> Self {
         let () = Self::WINDOW_OK;
         Self {
             config,
+            session,
+            peer_session: None,
+            prev_peer_session: None,
             window: Deque::new(),
             next_tx_seq: 0,
             rx_next_seq: 0,
@@ -121,6 +145,8 @@ impl<Tx, Rx: DeserializeOwned, const WINDOW: usize> Link<Tx, Rx, WINDOW> {
                 out_of_order: 0,
                 corrupt: 0,
                 retransmissions: 0,
+                stale: 0,
+                peer_restarts: 0,
             },
             _rx: core::marker::PhantomData,
         }
@@ -131,8 +157,15 @@ impl<Tx, Rx: DeserializeOwned, const WINDOW: usize> Link<Tx, Rx, WINDOW> {
         if self.down.is_some() {
             return Err(msg);
         }
-        let pending =
-            Pending { seq: self.next_tx_seq, msg, last_sent_us: None, transmissions: 0, due: true };
+        let pending = Pending {
+            seq: self.next_tx_seq,
+            msg,
+            last_sent_us: None,
+            deadline_us: None,
+            timeouts: 0,
+            transmissions: 0,
+            due: true,
+        };
         match self.window.push_back(pending) {
             Ok(()) => {
                 self.next_tx_seq = self.next_tx_seq.wrapping_add(1);
@@ -167,10 +200,20 @@ impl<Tx, Rx: DeserializeOwned, const WINDOW: usize> Link<Tx, Rx, WINDOW> {
         self.stats
     }
 
-    /// Forgets all state (unsent and unacked messages included); both peers must reset
-    /// together, e.g. after a new handshake.
-    pub fn reset(&mut self) {
-        *self = Self::new(self.config);
+    /// This link's session id.
+    pub fn session(&self) -> u16 {
+        self.session
+    }
+
+    /// Starts a new life under `new_session` (which must differ from the current one):
+    /// unsent and unacknowledged messages are dropped and numbering restarts. The peer sees
+    /// the new session in the next frame (an ack is sent to announce it) and follows.
+    pub fn reset(&mut self, new_session: u16) {
+        let (peer_session, prev_peer_session) = (self.peer_session, self.prev_peer_session);
+        *self = Self::new(self.config, new_session);
+        self.peer_session = peer_session;
+        self.prev_peer_session = prev_peer_session;
+        self.ack_due = true;
     }
 
     /// Decodes `bytes` (one stuffed frame) and handles it as [`Self::on_frame`] does.
@@ -182,30 +225,59 @@ impl<Tx, Rx: DeserializeOwned, const WINDOW: usize> Link<Tx, Rx, WINDOW> {
     /// Handles a received frame, or a decode failure (answered with a nack). Returns the
     /// message to deliver, if this frame carried the next one in order.
     pub fn on_frame(&mut self, now_us: u64, frame: Result<Frame<Rx>, WireError>) -> Option<Rx> {
-        let frame = match frame {
-            Ok(frame) => frame,
-            Err(_) => {
-                self.stats.corrupt += 1;
-                self.request_nack();
-                return None;
-            }
+        let Ok(frame) = frame else {
+            self.stats.corrupt += 1;
+            self.request_nack();
+            return None;
         };
+        if frame.receiver_session.is_some_and(|s| s != self.session) {
+            // Addressed to an earlier life of ours: announce the current session.
+            self.stats.stale += 1;
+            self.nack_due = true;
+            return None;
+        }
+        if self.prev_peer_session == Some(frame.sender_session) {
+            self.stats.stale += 1; // from the peer's previous life, delayed on the line
+            return None;
+        }
+        match self.peer_session {
+            None => self.peer_session = Some(frame.sender_session),
+            Some(peer) if peer != frame.sender_session => {
+                self.on_peer_restart(frame.sender_session)
+            }
+            Some(_) => {}
+        }
         self.last_heard_us = Some(now_us);
-        match frame {
-            Frame::Data { seq, ack, msg } => {
-                self.on_ack(ack);
-                self.on_data(seq, msg)
-            }
-            Frame::Ack { ack } => {
-                self.on_ack(ack);
-                None
-            }
-            Frame::Nack { ack } => {
-                self.on_ack(ack);
-                self.on_nack(now_us, ack);
+        self.on_ack(frame.ack);
+        match frame.kind {
+            FrameKind::Data { seq, msg } => self.on_data(seq, msg),
+            FrameKind::Ack => None,
+            FrameKind::Nack => {
+                self.on_nack(now_us, frame.ack);
                 None
             }
         }
+    }
+
+    /// The peer restarted: restart receive numbering and resend the unacknowledged window
+    /// renumbered from 0.
+    fn on_peer_restart(&mut self, new_peer_session: u16) {
+        self.prev_peer_session = self.peer_session;
+        self.peer_session = Some(new_peer_session);
+        self.stats.peer_restarts += 1;
+        self.rx_next_seq = 0;
+        self.nacked_at_seq = None;
+        let mut seq: u16 = 0;
+        for pending in self.window.iter_mut() {
+            pending.seq = seq;
+            pending.due = true;
+            pending.transmissions = 0;
+            pending.timeouts = 0;
+            pending.last_sent_us = None;
+            pending.deadline_us = None;
+            seq = seq.wrapping_add(1);
+        }
+        self.next_tx_seq = seq;
     }
 
     fn on_data(&mut self, seq: u16, msg: Rx) -> Option<Rx> {
@@ -257,32 +329,37 @@ impl<Tx, Rx: DeserializeOwned, const WINDOW: usize> Link<Tx, Rx, WINDOW> {
         }
     }
 
-    /// Drives timeouts: resends the window when the oldest frame has waited
-    /// `retransmit_timeout_us`, and reports the link down once a frame has used all its
-    /// transmissions.
+    /// Drives timeouts: resends the window when the oldest frame's deadline passes, and
+    /// reports the link down once it has gone through `max_timeouts` timeouts.
     pub fn poll(&mut self, now_us: u64) -> Result<(), LinkDown> {
         if let Some(down) = self.down {
             return Err(down);
         }
-        let timeout_us = self.config.retransmit_timeout_us;
-        let Some(oldest) = self.window.front() else { return Ok(()) };
-        let Some(sent_us) = oldest.last_sent_us else { return Ok(()) };
-        if oldest.due || now_us.saturating_sub(sent_us) < timeout_us {
+        let max_timeouts = self.config.max_timeouts;
+        let Some(oldest) = self.window.front_mut() else { return Ok(()) };
+        if oldest.deadline_us.is_none_or(|deadline_us| now_us < deadline_us) {
             return Ok(());
         }
-        if oldest.transmissions >= self.config.max_transmissions {
-            let down = LinkDown { seq: oldest.seq, transmissions: oldest.transmissions };
+        oldest.timeouts = oldest.timeouts.saturating_add(1);
+        if oldest.timeouts >= max_timeouts {
+            let down = LinkDown {
+                seq: oldest.seq,
+                timeouts: oldest.timeouts,
+                transmissions: oldest.transmissions,
+            };
             self.down = Some(down);
             return Err(down);
         }
-        self.mark_window_due();
+        for pending in self.window.iter_mut() {
+            pending.due = true;
+            pending.deadline_us = None; // re-armed when resent
+        }
         Ok(())
     }
 
     /// When [`Self::poll`] next needs calling for a timeout, µs in the caller's clock.
     pub fn next_timeout_us(&self) -> Option<u64> {
-        let oldest = self.window.front()?;
-        oldest.last_sent_us.map(|t| t.saturating_add(self.config.retransmit_timeout_us))
+        self.window.front()?.deadline_us
     }
 
     /// The next frame to put on the wire, if any: a nack, then due data frames in order
@@ -292,27 +369,33 @@ impl<Tx, Rx: DeserializeOwned, const WINDOW: usize> Link<Tx, Rx, WINDOW> {
         if self.down.is_some() {
             return None;
         }
-        let ack = self.rx_next_seq;
-        if self.nack_due {
+        let kind = if self.nack_due {
             self.nack_due = false;
-            self.ack_due = false;
-            self.nacked_at_seq = Some(ack);
-            return Some(Frame::Nack { ack });
-        }
-        if let Some(pending) = self.window.iter_mut().find(|p| p.due) {
+            self.nacked_at_seq = Some(self.rx_next_seq);
+            FrameKind::Nack
+        } else if let Some(pending) = self.window.iter_mut().find(|p| p.due) {
             if pending.transmissions > 0 {
                 self.stats.retransmissions += 1;
             }
             pending.due = false;
             pending.last_sent_us = Some(now_us);
+            if pending.deadline_us.is_none() {
+                pending.deadline_us =
+                    Some(now_us.saturating_add(self.config.retransmit_timeout_us));
+            }
             pending.transmissions = pending.transmissions.saturating_add(1);
-            self.ack_due = false;
-            return Some(Frame::Data { seq: pending.seq, ack, msg: &pending.msg });
-        }
-        if self.ack_due {
-            self.ack_due = false;
-            return Some(Frame::Ack { ack });
-        }
-        None
+            FrameKind::Data { seq: pending.seq, msg: &pending.msg }
+        } else if self.ack_due {
+            FrameKind::Ack
+        } else {
+            return None;
+        };
+        self.ack_due = false;
+        Some(Frame {
+            sender_session: self.session,
+            receiver_session: self.peer_session,
+            ack: self.rx_next_seq,
+            kind,
+        })
     }
 }

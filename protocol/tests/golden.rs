@@ -9,7 +9,7 @@
 mod common;
 
 use mesopush_protocol::{
-    CtrlToExec, ExecToCtrl, ExecToHost, Frame, HostToExec, SCHEMA_HASH, decode_frame,
+    CtrlToExec, ExecToCtrl, ExecToHost, Frame, FrameKind, HostToExec, SCHEMA_HASH, decode_frame,
 };
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -103,24 +103,34 @@ fn golden_vectors_decode_to_samples() {
     let bytes_of = |name: &str| golden.frames.get(name).cloned().expect("vector exists");
     for (name, msg) in common::host_to_exec() {
         let frame = decode_frame::<HostToExec>(&mut bytes_of(name));
-        assert_eq!(frame, Ok(Frame::Data { seq: 1, ack: 2, msg }), "{name}");
+        assert_eq!(frame, Ok(common::data(1, 2, msg)), "{name}");
     }
     for (name, msg) in common::exec_to_host() {
         let frame = decode_frame::<ExecToHost>(&mut bytes_of(&name));
-        assert_eq!(frame, Ok(Frame::Data { seq: 300, ack: 65_535, msg }), "{name}");
+        assert_eq!(frame, Ok(common::data(300, 65_535, msg)), "{name}");
     }
     for (name, msg) in common::exec_to_ctrl() {
         let frame = decode_frame::<ExecToCtrl>(&mut bytes_of(name));
-        assert_eq!(frame, Ok(Frame::Data { seq: 65_535, ack: 0, msg }), "{name}");
+        assert_eq!(frame, Ok(common::data(65_535, 0, msg)), "{name}");
     }
     for (name, msg) in common::ctrl_to_exec() {
         let frame = decode_frame::<CtrlToExec>(&mut bytes_of(&name));
-        assert_eq!(frame, Ok(Frame::Data { seq: 5, ack: 6, msg }), "{name}");
+        assert_eq!(frame, Ok(common::data(5, 6, msg)), "{name}");
     }
     let ack = decode_frame::<CtrlToExec>(&mut bytes_of("link.ack"));
-    assert_eq!(ack, Ok(Frame::Ack { ack: 513 }));
+    let expected = Frame {
+        sender_session: common::SENDER_SESSION,
+        receiver_session: common::RECEIVER_SESSION,
+        ack: 513,
+        kind: FrameKind::Ack,
+    };
+    assert_eq!(ack, Ok(expected));
     let nack = decode_frame::<HostToExec>(&mut bytes_of("link.nack"));
-    assert_eq!(nack, Ok(Frame::Nack { ack: 7 }));
+    assert_eq!(nack.map(|f| (f.ack, f.kind)), Ok((7, FrameKind::Nack)));
+    let fresh = decode_frame::<ExecToCtrl>(&mut bytes_of("link.ack_fresh"));
+    let fresh_expected =
+        Frame { sender_session: 7, receiver_session: None, ack: 0, kind: FrameKind::Ack };
+    assert_eq!(fresh, Ok(fresh_expected));
 }
 
 /// Names are unique, so no vector silently shadows another.

@@ -8,12 +8,24 @@ use common::channel::{Channel, Faults, Rng, flush};
 use mesopush_protocol::host::{ExecToHost, HostToExec};
 use mesopush_protocol::link::LinkStats;
 use mesopush_protocol::{
-    FRAME_BUF_LEN, Frame, Link, LinkConfig, LinkDown, decode_frame, encode_frame,
+    FRAME_BUF_LEN, Frame, FrameKind, Link, LinkConfig, LinkDown, decode_frame, encode_frame,
 };
 
 const WINDOW: usize = 8;
 type HostLink = Link<HostToExec, ExecToHost, WINDOW>;
 type ExecLink = Link<ExecToHost, HostToExec, WINDOW>;
+const HOST_SESSION: u16 = 11;
+const EXEC_SESSION: u16 = 22;
+
+/// A frame from the host link to the exec link.
+fn from_host<M>(ack: u16, kind: FrameKind<M>) -> Frame<M> {
+    Frame { sender_session: HOST_SESSION, receiver_session: Some(EXEC_SESSION), ack, kind }
+}
+
+/// A frame from the exec link to the host link.
+fn from_exec<M>(ack: u16, kind: FrameKind<M>) -> Frame<M> {
+    Frame { sender_session: EXEC_SESSION, receiver_session: Some(HOST_SESSION), ack, kind }
+}
 
 struct Outcome {
     host_received: Vec<u32>,
@@ -27,8 +39,9 @@ struct Outcome {
 /// delivered and acknowledged, or the simulated time limit passes.
 fn simulate(seed: u64, faults: Faults, count: u32) -> Outcome {
     let mut rng = Rng(seed | 1);
-    let config = LinkConfig { max_transmissions: 60, ..LinkConfig::DEFAULT };
-    let (mut host, mut exec) = (HostLink::new(config), ExecLink::new(config));
+    let config = LinkConfig::DEFAULT;
+    let (mut host, mut exec) =
+        (HostLink::new(config, HOST_SESSION), ExecLink::new(config, EXEC_SESSION));
     let (mut to_exec, mut to_host) = (Channel::default(), Channel::default());
     let (mut host_next, mut exec_next) = (0u32, 0u32);
     let (mut host_received, mut exec_received) = (Vec::new(), Vec::new());
@@ -110,7 +123,7 @@ fn sequence_numbers_wrap_without_loss_or_duplication() {
 
 #[test]
 fn full_window_hands_the_message_back() {
-    let mut host = HostLink::new(LinkConfig::DEFAULT);
+    let mut host = HostLink::new(LinkConfig::DEFAULT, HOST_SESSION);
     for plan_id in 0..WINDOW as u32 {
         assert_eq!(host.send(HostToExec::Arm { plan_id }), Ok(()));
     }
@@ -121,7 +134,7 @@ fn full_window_hands_the_message_back() {
 #[test]
 fn silent_peer_takes_the_link_down_after_bounded_transmissions() {
     let config = LinkConfig::DEFAULT;
-    let mut host = HostLink::new(config);
+    let mut host = HostLink::new(config, HOST_SESSION);
     host.send(HostToExec::Abort).expect("window has room");
     let mut sends = 0;
     let mut now_us = 0;
@@ -135,8 +148,8 @@ fn silent_peer_takes_the_link_down_after_bounded_transmissions() {
         now_us += 1_000;
         assert!(now_us < 10_000_000, "never went down");
     };
-    let max = config.max_transmissions;
-    assert_eq!(down, LinkDown { seq: 0, transmissions: max });
+    let max = config.max_timeouts;
+    assert_eq!(down, LinkDown { seq: 0, timeouts: max, transmissions: max });
     assert_eq!(sends, u32::from(max));
     assert_eq!(
         now_us,
@@ -149,14 +162,14 @@ fn silent_peer_takes_the_link_down_after_bounded_transmissions() {
 
 #[test]
 fn damaged_frame_is_answered_with_a_nack_for_the_next_expected_seq() {
-    let mut exec = ExecLink::new(LinkConfig::DEFAULT);
+    let mut exec = ExecLink::new(LinkConfig::DEFAULT, EXEC_SESSION);
     let mut buf = [0u8; FRAME_BUF_LEN];
-    let first = Frame::Data { seq: 0, ack: 0, msg: HostToExec::StatusQuery };
+    let first = from_host(0, FrameKind::Data { seq: 0, msg: HostToExec::StatusQuery });
     let mut bytes = encode_frame(&first, &mut buf).expect("fits").to_vec();
     assert_eq!(exec.on_bytes(0, &mut bytes), Some(HostToExec::StatusQuery));
     let mut garbage = vec![0x03, 0x11, 0x22, 0x00];
     assert_eq!(exec.on_bytes(10, &mut garbage), None);
-    assert!(matches!(exec.poll_transmit(10), Some(Frame::Nack { ack: 1 })));
+    assert!(matches!(exec.poll_transmit(10), Some(Frame { kind: FrameKind::Nack, ack: 1, .. })));
     assert!(exec.poll_transmit(10).is_none(), "the nack also carried the ack");
     // A second damaged frame for the same gap does not nack again (timeouts cover it).
     assert_eq!(exec.on_bytes(20, &mut [0x01, 0x00]), None);
@@ -165,35 +178,47 @@ fn damaged_frame_is_answered_with_a_nack_for_the_next_expected_seq() {
 
 #[test]
 fn duplicate_data_is_acked_but_not_redelivered() {
-    let mut exec = ExecLink::new(LinkConfig::DEFAULT);
-    let frame = Frame::Data { seq: 0, ack: 0, msg: HostToExec::Abort };
+    let mut exec = ExecLink::new(LinkConfig::DEFAULT, EXEC_SESSION);
+    let frame = from_host(0, FrameKind::Data { seq: 0, msg: HostToExec::Abort });
     assert_eq!(exec.on_frame(0, Ok(frame.clone())), Some(HostToExec::Abort));
-    assert!(matches!(exec.poll_transmit(0), Some(Frame::Ack { ack: 1 })));
+    assert!(matches!(exec.poll_transmit(0), Some(Frame { kind: FrameKind::Ack, ack: 1, .. })));
     assert_eq!(exec.on_frame(5, Ok(frame)), None);
-    assert!(matches!(exec.poll_transmit(5), Some(Frame::Ack { ack: 1 })));
+    assert!(matches!(exec.poll_transmit(5), Some(Frame { kind: FrameKind::Ack, ack: 1, .. })));
     assert_eq!(exec.stats().duplicates, 1);
 }
 
 #[test]
 fn nack_resends_the_window_only_after_the_holdoff() {
     let config = LinkConfig::DEFAULT;
-    let mut host = HostLink::new(config);
+    let mut host = HostLink::new(config, HOST_SESSION);
     host.send(HostToExec::Arm { plan_id: 1 }).expect("room");
     host.send(HostToExec::Start { plan_id: 1 }).expect("room");
-    assert!(matches!(host.poll_transmit(0), Some(Frame::Data { seq: 0, .. })));
-    assert!(matches!(host.poll_transmit(0), Some(Frame::Data { seq: 1, .. })));
-    let nack: Result<Frame<ExecToHost>, _> = Ok(Frame::Nack { ack: 0 });
+    assert!(matches!(
+        host.poll_transmit(0),
+        Some(Frame { kind: FrameKind::Data { seq: 0, .. }, .. })
+    ));
+    assert!(matches!(
+        host.poll_transmit(0),
+        Some(Frame { kind: FrameKind::Data { seq: 1, .. }, .. })
+    ));
+    let nack: Result<Frame<ExecToHost>, _> = Ok(from_exec(0, FrameKind::Nack));
     host.on_frame(config.nack_holdoff_us - 1, nack.clone());
     assert!(host.poll_transmit(config.nack_holdoff_us - 1).is_none(), "within holdoff");
     host.on_frame(config.nack_holdoff_us, nack);
     let t = config.nack_holdoff_us;
-    assert!(matches!(host.poll_transmit(t), Some(Frame::Data { seq: 0, .. })));
-    assert!(matches!(host.poll_transmit(t), Some(Frame::Data { seq: 1, .. })));
+    assert!(matches!(
+        host.poll_transmit(t),
+        Some(Frame { kind: FrameKind::Data { seq: 0, .. }, .. })
+    ));
+    assert!(matches!(
+        host.poll_transmit(t),
+        Some(Frame { kind: FrameKind::Data { seq: 1, .. }, .. })
+    ));
     // An ack for the first frame releases it and frees a window slot.
-    host.on_frame(t + 1, Ok(Frame::<ExecToHost>::Ack { ack: 1 }));
+    host.on_frame(t + 1, Ok(from_exec::<ExecToHost>(1, FrameKind::Ack)));
     assert_eq!(host.free_slots(), WINDOW - 1);
     // An ack for frames never sent is ignored.
-    host.on_frame(t + 2, Ok(Frame::<ExecToHost>::Ack { ack: 500 }));
+    host.on_frame(t + 2, Ok(from_exec::<ExecToHost>(500, FrameKind::Ack)));
     assert_eq!(host.free_slots(), WINDOW - 1);
 }
 
@@ -201,7 +226,7 @@ fn nack_resends_the_window_only_after_the_holdoff() {
 fn frames_decode_with_the_type_they_were_sent_as() {
     // Guards the test harness: an ack frame decodes under either message type.
     let mut buf = [0u8; FRAME_BUF_LEN];
-    let ack = Frame::<ExecToHost>::Ack { ack: 3 };
+    let ack = from_exec::<ExecToHost>(3, FrameKind::Ack);
     let mut bytes = encode_frame(&ack, &mut buf).expect("fits").to_vec();
-    assert_eq!(decode_frame::<HostToExec>(&mut bytes), Ok(Frame::Ack { ack: 3 }));
+    assert_eq!(decode_frame::<HostToExec>(&mut bytes), Ok(from_exec(3, FrameKind::Ack)));
 }

@@ -7,15 +7,18 @@ use common::strategies as st;
 use mesopush_protocol::flash::{PlanStep, image_steps};
 use mesopush_protocol::frame::frame_len_max;
 use mesopush_protocol::{
-    CtrlToExec, ExecToCtrl, ExecToHost, FRAME_BUF_LEN, Frame, FrameReader, HostToExec, MaxSize,
-    decode_frame, encode_frame,
+    CtrlToExec, ExecToCtrl, ExecToHost, FRAME_BUF_LEN, Frame, FrameKind, FrameReader, HostToExec,
+    MaxSize, decode_frame, encode_frame,
 };
 use proptest::prelude::*;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::fmt::Debug;
 
-fn roundtrip<M>(seq: u16, ack: u16, msg: M) -> Result<(), TestCaseError>
+/// Sender session, receiver session, ack.
+type Header = (u16, Option<u16>, u16);
+
+fn roundtrip<M>(header: Header, seq: u16, msg: M) -> Result<(), TestCaseError>
 where
     M: Serialize + DeserializeOwned + MaxSize + PartialEq + Debug + Clone,
 {
@@ -26,7 +29,9 @@ where
         "body {body_len:?} > MAX_SIZE {}",
         M::MAX_SIZE
     );
-    let frame = Frame::Data { seq, ack, msg };
+    let (sender_session, receiver_session, ack) = header;
+    let kind = FrameKind::Data { seq, msg };
+    let frame = Frame { sender_session, receiver_session, ack, kind };
     let mut buf = [0u8; FRAME_BUF_LEN];
     let len = encode_frame(&frame, &mut buf).map(|b| b.len());
     let len = len.map_err(|e| TestCaseError::fail(format!("encode: {e}")))?;
@@ -43,29 +48,30 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(2_000))]
 
     #[test]
-    fn host_to_exec_roundtrips(seq: u16, ack: u16, msg in st::host_to_exec()) {
-        roundtrip::<HostToExec>(seq, ack, msg)?;
+    fn host_to_exec_roundtrips(header: Header, seq: u16, msg in st::host_to_exec()) {
+        roundtrip::<HostToExec>(header, seq, msg)?;
     }
 
     #[test]
-    fn exec_to_host_roundtrips(seq: u16, ack: u16, msg in st::exec_to_host()) {
-        roundtrip::<ExecToHost>(seq, ack, msg)?;
+    fn exec_to_host_roundtrips(header: Header, seq: u16, msg in st::exec_to_host()) {
+        roundtrip::<ExecToHost>(header, seq, msg)?;
     }
 
     #[test]
-    fn exec_to_ctrl_roundtrips(seq: u16, ack: u16, msg in st::exec_to_ctrl()) {
-        roundtrip::<ExecToCtrl>(seq, ack, msg)?;
+    fn exec_to_ctrl_roundtrips(header: Header, seq: u16, msg in st::exec_to_ctrl()) {
+        roundtrip::<ExecToCtrl>(header, seq, msg)?;
     }
 
     #[test]
-    fn ctrl_to_exec_roundtrips(seq: u16, ack: u16, msg in st::ctrl_to_exec()) {
-        roundtrip::<CtrlToExec>(seq, ack, msg)?;
+    fn ctrl_to_exec_roundtrips(header: Header, seq: u16, msg in st::ctrl_to_exec()) {
+        roundtrip::<CtrlToExec>(header, seq, msg)?;
     }
 
     #[test]
-    fn ack_and_nack_frames_roundtrip(ack: u16, nack: bool) {
-        let frame: Frame<HostToExec> =
-            if nack { Frame::Nack { ack } } else { Frame::Ack { ack } };
+    fn ack_and_nack_frames_roundtrip(header: Header, nack: bool) {
+        let (sender_session, receiver_session, ack) = header;
+        let kind = if nack { FrameKind::Nack } else { FrameKind::Ack };
+        let frame: Frame<HostToExec> = Frame { sender_session, receiver_session, ack, kind };
         let mut buf = [0u8; FRAME_BUF_LEN];
         let len = encode_frame(&frame, &mut buf).map(|b| b.len()).expect("fits");
         prop_assert_eq!(decode_frame::<HostToExec>(&mut buf[..len]), Ok(frame));
@@ -104,7 +110,7 @@ proptest! {
                 if let Some(frame) = reader.push_byte(byte) {
                     let bytes = frame.map_err(|e| TestCaseError::fail(e.to_string()))?;
                     match decode_frame::<ExecToCtrl>(bytes) {
-                        Ok(Frame::Data { msg, .. }) => received.push(msg),
+                        Ok(Frame { kind: FrameKind::Data { msg, .. }, .. }) => received.push(msg),
                         other => return Err(TestCaseError::fail(format!("{other:?}"))),
                     }
                 }
@@ -127,7 +133,9 @@ fn max_size_is_tight_for_full_flash_chunk() {
         HostToExec::FlashChunk(FlashChunk { plan_id: u32::MAX, offset_bytes: u32::MAX, data });
     let mut buf = [0u8; FRAME_BUF_LEN];
     assert_eq!(postcard::to_slice(&msg, &mut buf).map(|b| b.len()), Ok(HostToExec::MAX_SIZE));
-    let frame = Frame::Data { seq: u16::MAX, ack: u16::MAX, msg };
+    let kind = FrameKind::Data { seq: u16::MAX, msg };
+    let frame =
+        Frame { sender_session: u16::MAX, receiver_session: Some(u16::MAX), ack: u16::MAX, kind };
     let len = encode_frame(&frame, &mut buf).map(|b| b.len()).expect("fits");
     assert!(len <= frame_len_max::<HostToExec>(), "{len}");
     assert!(frame_len_max::<HostToExec>() <= FRAME_BUF_LEN);
@@ -135,7 +143,7 @@ fn max_size_is_tight_for_full_flash_chunk() {
 
 #[test]
 fn encode_into_small_buffer_is_an_error_not_a_panic() {
-    let frame = Frame::Data { seq: 1, ack: 2, msg: ExecToCtrl::Stop };
+    let frame = common::data(1, 2, ExecToCtrl::Stop);
     let mut full = [0u8; FRAME_BUF_LEN];
     let needed = encode_frame(&frame, &mut full).map(|b| b.len()).expect("fits");
     for len in 0..needed {

@@ -16,9 +16,7 @@ use mesopush_executor as _;
 use core::hint::black_box;
 use mesopush_protocol::ctrl::{CtrlToExec, ExecToCtrl, MoveSegment};
 use mesopush_protocol::flash::{FlashHeader, image_crc32};
-use mesopush_protocol::{
-    FRAME_BUF_LEN, Frame, FrameReader, Link, LinkConfig, decode_frame, encode_frame,
-};
+use mesopush_protocol::{FRAME_BUF_LEN, FrameReader, Link, LinkConfig, decode_frame, encode_frame};
 
 #[panic_handler]
 fn panic(_info: &core::panic::PanicInfo) -> ! {
@@ -26,7 +24,7 @@ fn panic(_info: &core::panic::PanicInfo) -> ! {
 }
 
 fn exercise() -> u32 {
-    let mut link: Link<ExecToCtrl, CtrlToExec, 4> = Link::new(LinkConfig::DEFAULT);
+    let mut link: Link<ExecToCtrl, CtrlToExec, 4> = Link::new(LinkConfig::DEFAULT, black_box(1));
     let segment = black_box(MoveSegment {
         segment_id: 1,
         start_ctrl_time_us: 10_000,
@@ -46,7 +44,8 @@ fn exercise() -> u32 {
     let mut speed_nm_s = 0;
     for &byte in black_box(&buf[..len]) {
         if let Some(Ok(frame)) = reader.push_byte(byte) {
-            if let Ok(Frame::Data { msg: ExecToCtrl::Move(m), .. }) = decode_frame(frame) {
+            let decoded = decode_frame::<ExecToCtrl>(frame).ok().and_then(|f| f.into_msg());
+            if let Some(ExecToCtrl::Move(m)) = decoded {
                 speed_nm_s = m.speed_nm_s;
             }
         }

@@ -14,7 +14,7 @@ use mesopush_protocol::host::{
     CommandRejectReason, ExecState, ExecStatus, ExecToHost, FrameStamp, Hello, HostToExec,
     ProbeTelemetry, TrialEvent, TrialEventKind, TrialFault,
 };
-use mesopush_protocol::{FRAME_BUF_LEN, Frame, MaxSize, encode_frame};
+use mesopush_protocol::{FRAME_BUF_LEN, Frame, FrameKind, MaxSize, encode_frame};
 use serde::Serialize;
 
 /// A controller fault used inside several samples.
@@ -239,10 +239,25 @@ pub fn ctrl_to_exec() -> Vec<(String, CtrlToExec)> {
     out
 }
 
-/// Encodes `msg` as a data frame.
+/// Sender session of every sample frame.
+pub const SENDER_SESSION: u16 = 0x0102;
+/// Receiver session of every sample frame.
+pub const RECEIVER_SESSION: Option<u16> = Some(300);
+
+/// A data frame between the sample sessions.
+pub fn data<M>(seq: u16, ack: u16, msg: M) -> Frame<M> {
+    Frame {
+        sender_session: SENDER_SESSION,
+        receiver_session: RECEIVER_SESSION,
+        ack,
+        kind: FrameKind::Data { seq, msg },
+    }
+}
+
+/// Encodes `msg` as a data frame between the sample sessions.
 pub fn data_frame<M: Serialize + MaxSize>(seq: u16, ack: u16, msg: M) -> Vec<u8> {
     let mut buf = [0u8; FRAME_BUF_LEN];
-    let bytes = encode_frame(&Frame::Data { seq, ack, msg }, &mut buf).expect("sample fits");
+    let bytes = encode_frame(&data(seq, ack, msg), &mut buf).expect("sample fits");
     bytes.to_vec()
 }
 
@@ -262,9 +277,12 @@ pub fn all_sample_frames() -> Vec<(String, Vec<u8>)> {
         out.push((name, data_frame(5, 6, msg)));
     }
     let mut buf = [0u8; FRAME_BUF_LEN];
-    for (name, frame) in
-        [("link.ack", Frame::<()>::Ack { ack: 513 }), ("link.nack", Frame::<()>::Nack { ack: 7 })]
-    {
+    let fresh =
+        Frame::<()> { sender_session: 7, receiver_session: None, ack: 0, kind: FrameKind::Ack };
+    let ack = Frame::<()> { ack: 513, ..data(0, 0, ()) };
+    let ack = Frame { kind: FrameKind::Ack, ..ack };
+    let nack = Frame::<()> { ack: 7, kind: FrameKind::Nack, ..data(0, 0, ()) };
+    for (name, frame) in [("link.ack", ack), ("link.nack", nack), ("link.ack_fresh", fresh)] {
         let bytes = encode_frame(&frame, &mut buf).expect("control frame fits");
         out.push((name.to_string(), bytes.to_vec()));
     }
