@@ -41,6 +41,9 @@ pub enum Error {
         /// The host unit.
         unit: &'static str,
     },
+    /// A complementarity solve found no verified answer.
+    #[error("LCP: {0}")]
+    Lcp(#[from] crate::lcp::LcpFailure),
     /// A polygon is not a valid convex polygon.
     #[error("polygon: {0}")]
     Polygon(#[from] crate::geom::PolygonError),

@@ -6,6 +6,7 @@
 
 pub mod error;
 pub mod geom;
+pub mod lcp;
 pub mod units;
 
 pub use error::Error;

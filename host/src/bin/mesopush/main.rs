@@ -1,6 +1,8 @@
 //! `mesopush`: the host command line. Thin over `mesopush_host`: each subcommand module parses
 //! its flags, calls the library and prints.
 
+mod cmd_lcp;
+
 use clap::{Parser, Subcommand};
 
 /// Design, execute and verify open-loop pushing plans for meso-scale assembly.
@@ -12,9 +14,14 @@ struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    /// Complementarity problems: solve LCP files with our solver.
+    Lcp(cmd_lcp::LcpArgs),
+}
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    match cli.command {}
+    match cli.command {
+        Command::Lcp(args) => cmd_lcp::run(args),
+    }
 }
