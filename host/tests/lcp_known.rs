@@ -45,13 +45,13 @@ fn murty_takes_exactly_two_to_the_n_pivots() {
 fn pivot_limit_is_reported_then_enumeration_rescues_small_problems() {
     let (m, q) = murty(10);
     let strict =
-        LcpSettings { max_pivots: 100, enumerate_max_n: 0, retry: false, ..Default::default() };
+        LcpSettings { max_pivots: 100, enumerate_max_n: 0, retries: 0, ..Default::default() };
     let mut solver = LcpSolver::new(10, strict);
     match solver.solve(&lcp(&m, &q)) {
         Err(LcpFailure::PivotLimit { pivots, n }) => assert_eq!((pivots, n), (100, 10)),
         other => panic!("expected PivotLimit, got {other:?}"),
     }
-    solver.set_settings(LcpSettings { max_pivots: 100, retry: false, ..Default::default() });
+    solver.set_settings(LcpSettings { max_pivots: 100, retries: 0, ..Default::default() });
     let sol = solver.solve(&lcp(&m, &q)).expect("enumeration finds Murty's solution");
     assert_eq!(sol.method, SolveMethod::Enumeration);
     assert_eq!(sol.z[9], 1024.0);

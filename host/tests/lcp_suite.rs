@@ -63,7 +63,7 @@ fn every_dense_file_is_answered_correctly() {
 #[test]
 fn tobenna_lexicographic_ties_ignore_rounding_noise() {
     let lcp = siconos::read(&suite_dir().join("lcp_tobenna.dat")).unwrap();
-    let settings = LcpSettings { retry: false, enumerate_max_n: 0, ..Default::default() };
+    let settings = LcpSettings { retries: 0, enumerate_max_n: 0, ..Default::default() };
     let mut solver = LcpSolver::new(40, settings);
     let sol = solver.solve(&lcp.problem()).unwrap();
     assert_eq!(sol.pivots, 127);

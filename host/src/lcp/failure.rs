@@ -14,7 +14,7 @@ pub enum LcpFailure {
         /// Number of free variables.
         n_free: usize,
     },
-    /// Lemke ended on a secondary ray (also after the retry) and the problem is too large for
+    /// Lemke ended on a secondary ray (also after the retries) and the problem is too large for
     /// the enumeration fallback.
     #[error("Lemke ended on a secondary ray after {pivots} pivots; no fallback for n = {n}")]
     SecondaryRay {
@@ -31,7 +31,7 @@ pub enum LcpFailure {
         /// Number of complementarity variables.
         n: usize,
     },
-    /// Every method available for this size ran (Lemke, its retry, full enumeration of the
+    /// Every method available for this size ran (Lemke, its retries, full enumeration of the
     /// complementary bases) and none produced a verified solution.
     #[error("no solution found: Lemke ({pivots} pivots) and enumeration of {bases} bases")]
     NoSolutionFound {

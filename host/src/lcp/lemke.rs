@@ -27,8 +27,9 @@ pub(crate) enum LemkeEnd {
 pub(crate) enum Cover {
     /// `d = (1, …, 1)`: the classic choice.
     Ones,
-    /// A deterministic non-uniform positive vector, for the retry after a ray.
-    Spread,
+    /// Retry `k`: a deterministic pseudo-random positive vector with entries spread over
+    /// `[0.05, 20]`; another `d` is another Lemke path (equivalent to rescaling the problem).
+    Spread(u32),
 }
 
 /// The dense dictionary and all of Lemke's workspaces.
@@ -44,8 +45,12 @@ pub(crate) struct Tableau {
     is_basic: Vec<bool>,
     slot: Vec<usize>,
     free_row: Vec<bool>,
+    comp_rows: Vec<usize>,
+    acol: Vec<f64>,
+    width: usize,
     lex: Vec<usize>,
     cand: Vec<usize>,
+    nz: Vec<usize>,
     pivot_tol: f64,
 }
 
@@ -67,8 +72,11 @@ impl Tableau {
         self.is_basic.resize(2 * cap + 1, false);
         self.slot.resize(2 * cap + 1, 0);
         self.free_row.resize(cap, false);
+        self.acol.resize(cap, 0.0);
+        self.comp_rows.reserve(cap.saturating_sub(self.comp_rows.capacity()));
         self.lex.reserve(cap.saturating_sub(self.lex.capacity()));
         self.cand.reserve(cap.saturating_sub(self.cand.capacity()));
+        self.nz.reserve((cap + 1).saturating_sub(self.nz.capacity()));
     }
 
     /// Loads `w = q + M z + d z0` with every `w` basic.
@@ -79,6 +87,7 @@ impl Tableau {
         self.nf = p.n_free;
         self.pivot_tol = pivot_tol;
         let s = n + 1;
+        self.width = s;
         for i in 0..n {
             let row = &mut self.t[i * s..(i + 1) * s];
             row[..n].copy_from_slice(&p.m[i * n..(i + 1) * n]);
@@ -97,16 +106,25 @@ impl Tableau {
     }
 
     /// Exchanges the basic variable of row `r` with the nonbasic one of column `c`.
+    /// Step problems are sparse, so rows are updated only at the pivot row's nonzeros when
+    /// there are few of them.
     fn pivot(&mut self, r: usize, c: usize) {
-        let s = self.n + 1;
+        let (s, width) = (self.n + 1, self.width);
+        debug_assert!(c < width);
         let inv = 1.0 / self.t[r * s + c];
-        let prow = &mut self.prow[..s];
-        for (dst, src) in prow.iter_mut().zip(&self.t[r * s..(r + 1) * s]) {
+        let prow = &mut self.prow[..width];
+        self.nz.clear();
+        for (j, (dst, src)) in prow.iter_mut().zip(&self.t[r * s..r * s + width]).enumerate() {
             *dst = -src * inv;
+            if *src != 0.0 {
+                self.nz.push(j);
+            }
         }
         prow[c] = inv;
+        let sparse = self.nz.len() * 2 < width;
         let br = -self.b[r] * inv;
         for (i, row) in self.t[..self.n * s].chunks_exact_mut(s).enumerate() {
+            let row = &mut row[..width];
             if i == r {
                 row.copy_from_slice(prow);
                 continue;
@@ -116,8 +134,14 @@ impl Tableau {
                 continue;
             }
             row[c] = 0.0;
-            for (x, pv) in row.iter_mut().zip(prow.iter()) {
-                *x += f * pv;
+            if sparse {
+                for &j in &self.nz {
+                    row[j] += f * prow[j];
+                }
+            } else {
+                for (x, pv) in row.iter_mut().zip(prow.iter()) {
+                    *x += f * pv;
+                }
             }
             self.b[i] += f * br;
         }
@@ -181,37 +205,65 @@ impl Tableau {
             self.pivot(r, c);
             pivots += 1;
         }
+        if (n..n + nf).any(|v| !self.is_basic[v]) {
+            return None;
+        }
+        self.comp_rows.clear();
         for r in 0..n {
             let v = self.basic[r];
             self.free_row[r] = v >= n && v < n + nf;
+            if !self.free_row[r] {
+                self.comp_rows.push(r);
+            }
         }
+        // The equality slacks stay nonbasic at zero for good: park their columns at the end
+        // and stop updating them.
+        for k in 0..nf {
+            let target = n - k;
+            if self.slot[k] != target {
+                self.swap_columns(self.slot[k], target);
+            }
+        }
+        self.width = n + 1 - nf;
         Some(pivots)
+    }
+
+    /// Swaps two nonbasic columns (values and labels).
+    fn swap_columns(&mut self, a: usize, b: usize) {
+        let s = self.n + 1;
+        for row in self.t[..self.n * s].chunks_exact_mut(s) {
+            row.swap(a, b);
+        }
+        self.nonbasic.swap(a, b);
+        self.slot[self.nonbasic[a]] = a;
+        self.slot[self.nonbasic[b]] = b;
     }
 
     /// Runs lexicographic Lemke from the current (complementary) basis. Returns how it ended
     /// and the pivots spent.
     pub(crate) fn lemke(&mut self, max_pivots: usize, cover: Cover) -> (LemkeEnd, usize) {
         let (n, s) = (self.n, self.n + 1);
+        let z0_col = self.slot[2 * n];
         self.lex.clear();
         let mut most_neg: Option<usize> = None;
         let mut k = 0;
         for r in 0..n {
-            self.t[r * s + n] = if self.free_row[r] { 0.0 } else { cover_entry(cover, k) };
+            self.t[r * s + z0_col] = if self.free_row[r] { 0.0 } else { cover_entry(cover, k) };
             if self.free_row[r] {
                 continue;
             }
             k += 1;
             self.lex.push(self.basic[r]);
-            let ratio = self.b[r] / self.t[r * s + n];
+            let ratio = self.b[r] / self.t[r * s + z0_col];
             // Ties go to the later row: that keeps the rows lexicographically positive.
-            if ratio < 0.0 && most_neg.is_none_or(|m| ratio <= self.b[m] / self.t[m * s + n]) {
+            if ratio < 0.0 && most_neg.is_none_or(|m| ratio <= self.b[m] / self.t[m * s + z0_col]) {
                 most_neg = Some(r);
             }
         }
         let Some(mut r) = most_neg else {
             return (LemkeEnd::Solved, 0);
         };
-        let mut c = n; // z0's column: it has not moved since `load`.
+        let mut c = z0_col;
         let mut pivots = 0;
         loop {
             if pivots >= max_pivots {
@@ -234,32 +286,38 @@ impl Tableau {
 
     /// The lexicographic minimum-ratio row for entering column `c`, `z0` first among ties.
     fn leaving_row(&mut self, c: usize) -> Option<usize> {
-        let (n, s) = (self.n, self.n + 1);
-        let col_max = (0..n).fold(0.0f64, |m, i| m.max(self.t[i * s + c].abs()));
-        let eps = self.pivot_tol * col_max;
-        let mut theta = f64::INFINITY;
-        let mut b_max = 0.0f64;
-        for i in (0..n).filter(|&i| !self.free_row[i]) {
+        let s = self.n + 1;
+        let (mut col_max, mut b_max) = (0.0f64, 0.0f64);
+        for (k, &i) in self.comp_rows.iter().enumerate() {
             let a = -self.t[i * s + c];
-            b_max = b_max.max(self.b[i].abs());
-            if a > eps {
-                theta = theta.min(self.b[i].max(0.0) / a);
+            self.acol[k] = a;
+            col_max = if a.abs() > col_max { a.abs() } else { col_max };
+            b_max = if self.b[i].abs() > b_max { self.b[i].abs() } else { b_max };
+        }
+        let eps = self.pivot_tol * col_max;
+        // Minimum ratio b/a over a > eps, compared by cross-multiplication (no division).
+        let (mut best_b, mut best_a) = (f64::INFINITY, 1.0);
+        for (k, &i) in self.comp_rows.iter().enumerate() {
+            let (a, b) = (self.acol[k], self.b[i].max(0.0));
+            if a > eps && b * best_a < best_b * a {
+                (best_b, best_a) = (b, a);
             }
         }
-        if theta == f64::INFINITY {
+        if best_b == f64::INFINITY {
             return None;
         }
+        let theta = best_b / best_a;
         // Rows whose ratio ties with `theta` up to rounding noise in `b`.
         let tol_b = 1e-11 * b_max;
         self.cand.clear();
-        for i in (0..n).filter(|&i| !self.free_row[i]) {
-            let a = -self.t[i * s + c];
+        for (k, &i) in self.comp_rows.iter().enumerate() {
+            let a = self.acol[k];
             if a > eps && self.b[i].max(0.0) - theta * a <= tol_b {
                 self.cand.push(i);
             }
         }
         if self.cand.len() > 1 {
-            if let Some(&i) = self.cand.iter().find(|&&i| self.basic[i] == 2 * n) {
+            if let Some(&i) = self.cand.iter().find(|&&i| self.basic[i] == 2 * self.n) {
                 return Some(i);
             }
             self.lex_break(c);
@@ -329,7 +387,14 @@ impl Tableau {
 fn cover_entry(cover: Cover, k: usize) -> f64 {
     match cover {
         Cover::Ones => 1.0,
-        // Golden-ratio sequence in [1, 2): positive, deterministic, no two entries equal.
-        Cover::Spread => 1.0 + ((k as f64 + 1.0) * 0.618_033_988_749_895).fract(),
+        Cover::Spread(attempt) => {
+            // splitmix64 of (attempt, k): deterministic, platform-independent.
+            let mut x = (u64::from(attempt) << 32 | k as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
+            x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            x ^= x >> 31;
+            let u = (x >> 11) as f64 / (1u64 << 53) as f64;
+            (0.05f64.ln() + u * 400f64.ln()).exp()
+        }
     }
 }

@@ -75,9 +75,10 @@ pub struct LcpSettings {
     /// Largest number of complementarity variables for which the enumeration fallback runs
     /// (`2ⁿ` bases); `0` disables it. Default 16.
     pub enumerate_max_n: usize,
-    /// Retry Lemke once with a different covering vector when it ends on a ray or at the pivot
-    /// limit. Default `true`.
-    pub retry: bool,
+    /// Extra Lemke attempts, each with another (deterministic) covering vector, when Lemke
+    /// ends on a secondary ray, at the pivot limit or with an answer that fails verification.
+    /// Default 8.
+    pub retries: u32,
 }
 
 impl Default for LcpSettings {
@@ -87,7 +88,7 @@ impl Default for LcpSettings {
             tol: 1e-9,
             pivot_tol: 1e-11,
             enumerate_max_n: 16,
-            retry: true,
+            retries: 8,
         }
     }
 }

@@ -13,7 +13,7 @@ use super::{LcpFailure, LcpSettings, MlcpProblem};
 pub enum SolveMethod {
     /// Lemke with the covering vector of ones.
     Lemke,
-    /// Lemke's retry with a spread covering vector.
+    /// One of Lemke's retries with another covering vector.
     LemkeRetry,
     /// Enumeration of complementary bases.
     Enumeration,
@@ -97,14 +97,13 @@ impl LcpSolver {
         p.validate()?;
         self.settings.validate()?;
         self.reserve(p.n);
-        let covers: &[(Cover, SolveMethod)] = if self.settings.retry {
-            &[(Cover::Ones, SolveMethod::Lemke), (Cover::Spread, SolveMethod::LemkeRetry)]
-        } else {
-            &[(Cover::Ones, SolveMethod::Lemke)]
-        };
         let mut pivots = 0;
         let mut worst = Attempt::Ended(LemkeEnd::Ray);
-        for &(cover, method) in covers {
+        for k in 0..=self.settings.retries {
+            let (cover, method) = match k {
+                0 => (Cover::Ones, SolveMethod::Lemke),
+                _ => (Cover::Spread(k), SolveMethod::LemkeRetry),
+            };
             let attempt = self.attempt(p, cover, &mut pivots)?;
             match attempt {
                 Attempt::Verified(residuals, polished) => {
