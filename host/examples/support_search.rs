@@ -2,7 +2,9 @@
 //! distributions make Table II end with the peg horizontal and pushed all the way left?
 use mesopush_host::geom::Vec2;
 use mesopush_host::sim::fixture::rect;
-use mesopush_host::sim::{Fixture, Model, Plan, SimSettings, Simulator, SupportDistribution, replay};
+use mesopush_host::sim::{
+    Fixture, Model, Plan, SimSettings, Simulator, SupportDistribution, replay,
+};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -32,7 +34,9 @@ fn main() {
         // y-extent of the peg during the last move (entry), and where the 6th move ended.
         let last: Vec<_> = r.samples.iter().filter(|s| s.move_index == 6).collect();
         let peg = model.part.polygon();
-        let ys = last.iter().flat_map(|s| peg.transformed(&s.peg).vertices().iter().map(|v| v.y).collect::<Vec<_>>());
+        let ys = last.iter().flat_map(|s| {
+            peg.transformed(&s.peg).vertices().iter().map(|v| v.y).collect::<Vec<_>>()
+        });
         let (ylo, yhi) = ys.fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
         let right_end = peg.transformed(&p).vertices().iter().map(|v| v.x).fold(f64::MIN, f64::max);
         let _ = Vec2::zeros();
@@ -43,6 +47,9 @@ fn main() {
     rows.sort_by(|a, b| a.0.total_cmp(&b.0));
     println!("tried {tried}, {} ran", rows.len());
     for (th, p, re, span, pts) in rows.iter().take(20) {
-        println!("|θ| {th:5.2}° final ({:7.1},{:7.1}) right end {re:7.1} entry y-span {span:6.1} support {pts:?}", p.x_um, p.y_um);
+        println!(
+            "|θ| {th:5.2}° final ({:7.1},{:7.1}) right end {re:7.1} entry y-span {span:6.1} support {pts:?}",
+            p.x_um, p.y_um
+        );
     }
 }

@@ -8,7 +8,7 @@ pub mod error;
 pub mod geom;
 pub mod lcp;
 pub mod plot;
+pub mod sim;
 pub mod units;
 
 pub use error::Error;
-pub mod sim;

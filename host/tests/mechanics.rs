@@ -54,9 +54,8 @@ fn push_through_com_with_symmetric_support_is_pure_translation() {
 /// COM of the pushing direction and of the two friction-cone edges, all through the contact.
 fn votes(contact: Vec2, normal: Vec2, push_dir: Vec2, mu: f64) -> f64 {
     let half = mu.atan();
-    let rot = |v: Vec2, a: f64| {
-        Vec2::new(v.x * a.cos() - v.y * a.sin(), v.x * a.sin() + v.y * a.cos())
-    };
+    let rot =
+        |v: Vec2, a: f64| Vec2::new(v.x * a.cos() - v.y * a.sin(), v.x * a.sin() + v.y * a.cos());
     let lines = [push_dir, rot(normal, half), rot(normal, -half)];
     lines.iter().map(|d| cross(&contact, d).signum()).sum()
 }

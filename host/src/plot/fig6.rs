@@ -58,9 +58,18 @@ where
         p.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect()
     };
     for w in fig.walls {
-        chart.draw_series(std::iter::once(Polygon::new(clip(w), RGBColor(190, 190, 200).filled())))?;
+        chart.draw_series(std::iter::once(Polygon::new(
+            clip(w),
+            RGBColor(190, 190, 200).filled(),
+        )))?;
     }
-    let field = [(0.0, 0.0), (FIELD_UM[0], 0.0), (FIELD_UM[0], FIELD_UM[1]), (0.0, FIELD_UM[1]), (0.0, 0.0)];
+    let field = [
+        (0.0, 0.0),
+        (FIELD_UM[0], 0.0),
+        (FIELD_UM[0], FIELD_UM[1]),
+        (0.0, FIELD_UM[1]),
+        (0.0, 0.0),
+    ];
     chart.draw_series(std::iter::once(PathElement::new(field.to_vec(), BLACK.stroke_width(1))))?;
     if let Some(g) = fig.goal {
         let mut pts = clip(g);

@@ -124,9 +124,9 @@ pub fn wall_contacts(
 const MERGE_DIST_UM: f64 = 0.5;
 
 fn push_unique(out: &mut Vec<Contact>, c: Contact) {
-    let dup = out.iter().any(|o| {
-        (o.point - c.point).norm() < MERGE_DIST_UM && o.normal.dot(&c.normal) > 0.995
-    });
+    let dup = out
+        .iter()
+        .any(|o| (o.point - c.point).norm() < MERGE_DIST_UM && o.normal.dot(&c.normal) > 0.995);
     if !dup {
         out.push(c);
     }

@@ -91,7 +91,8 @@ impl Fixture {
     /// Loads a fixture TOML (`walls = [[[x, y], ...], ...]`, `goal = [[x, y], ...]`).
     pub fn load(path: &Path) -> Result<Self, Error> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        toml::from_str(&text).map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })
+        toml::from_str(&text)
+            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })
     }
 
     /// Whether every vertex of `peg_world` lies inside the goal region.

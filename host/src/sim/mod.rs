@@ -15,8 +15,8 @@ pub use settings::SimSettings;
 pub use support::SupportDistribution;
 pub mod plan;
 pub mod replay;
-pub mod trajectory;
 pub mod stepper;
+pub mod trajectory;
 
 pub use plan::Plan;
 pub use replay::{Replay, replay};

@@ -93,11 +93,7 @@ impl Default for Model {
     fn default() -> Self {
         Self {
             part: Part::default_peg(),
-            support: SupportDistribution::symmetric(
-                PEG_LENGTH_UM / 6.0,
-                PEG_WIDTH_UM / 3.0,
-                0.3,
-            ),
+            support: SupportDistribution::symmetric(PEG_LENGTH_UM / 6.0, PEG_WIDTH_UM / 3.0, 0.3),
             mu_probe: 0.8,
             mu_wall: 0.25,
             probe_radius_um: 12.5,
@@ -115,7 +111,10 @@ impl Model {
         }
         let r = self.probe_radius_um;
         if !(r.is_finite() && (0.0..=500.0).contains(&r)) {
-            return Err(Error::invalid("model", format!("probe_radius_um = {r} must be in [0, 500]")));
+            return Err(Error::invalid(
+                "model",
+                format!("probe_radius_um = {r} must be in [0, 500]"),
+            ));
         }
         self.support.validate(self.part.polygon())
     }

@@ -81,7 +81,8 @@ fn sample(t_s: f64, move_index: usize, st: &SimState, info: &StepInfo) -> Sample
 /// Replays `plan` from its own start state, or from `start` when given.
 pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<Replay, Error> {
     plan.validate()?;
-    let mut st = SimState { peg: start.unwrap_or(plan.peg_start_pose()), probe_um: plan.probe_start() };
+    let mut st =
+        SimState { peg: start.unwrap_or(plan.peg_start_pose()), probe_um: plan.probe_start() };
     let (step_um, margin) = (sim.settings().step_um, sim.settings().contact_margin_um);
     let max_steps = sim.settings().max_steps;
     let mut out = Replay {
@@ -131,8 +132,7 @@ pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<R
             out.steps += 1;
             out.lcp_solves += usize::from(info.solved_lcp);
             out.max_penetration_um = out.max_penetration_um.max(info.penetration_um);
-            out.max_probe_deflection_um =
-                out.max_probe_deflection_um.max(info.probe_deflection_um);
+            out.max_probe_deflection_um = out.max_probe_deflection_um.max(info.probe_deflection_um);
             out.samples.push(sample((travel_um + done) / plan.speed_um_s, mi, &st, &info));
         }
         travel_um += len;

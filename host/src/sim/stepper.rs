@@ -209,8 +209,7 @@ impl Simulator {
             probe_compliance_um: self.settings.probe_compliance_um,
         };
         let lay = self.problem.build(&inputs);
-        let problem =
-            MlcpProblem { n_free: 3, n: lay.n(), m: &self.problem.m, q: &self.problem.q };
+        let problem = MlcpProblem { n_free: 3, n: lay.n(), m: &self.problem.m, q: &self.problem.q };
         let sol = self.solver.solve(&problem).map_err(Error::Lcp)?;
         let z = sol.z;
         info.solved_lcp = true;
@@ -220,7 +219,8 @@ impl Simulator {
         info.probe_sliding = z[lay.planar_sigma(0)] > ACTIVE_EPS;
         for (i, (c, _)) in self.contacts.iter().enumerate() {
             if z[lay.normal(i)] > ACTIVE_EPS {
-                let mode = if z[lay.planar_sigma(i)] > ACTIVE_EPS { Mode::Slide } else { Mode::Stick };
+                let mode =
+                    if z[lay.planar_sigma(i)] > ACTIVE_EPS { Mode::Slide } else { Mode::Stick };
                 info.active.push((c.kind, mode));
             }
         }

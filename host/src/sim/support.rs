@@ -21,10 +21,7 @@ impl SupportDistribution {
     /// A symmetric default for a part: an isosceles triangle around the COM.
     pub fn symmetric(half_width_um: f64, half_height_um: f64, mu_surface: f64) -> Self {
         let (w, h) = (half_width_um, half_height_um);
-        Self {
-            points_um: [[-w, -h], [-w, h], [2.0 * w, 0.0]],
-            mu_surface: [mu_surface; 3],
-        }
+        Self { points_um: [[-w, -h], [-w, h], [2.0 * w, 0.0]], mu_surface: [mu_surface; 3] }
     }
 
     /// The support points as vectors.

@@ -51,8 +51,11 @@ pub(crate) fn run(args: &SimArgs) -> Result<()> {
         Some(p) => Fixture::load(p)?,
         None => Fixture::paper(),
     };
-    let settings =
-        SimSettings { step_um: args.step_um, n_directions: args.n_directions, ..Default::default() };
+    let settings = SimSettings {
+        step_um: args.step_um,
+        n_directions: args.n_directions,
+        ..Default::default()
+    };
     let mut sim = Simulator::new(model, fixture, settings)?;
     if let Some(runs) = args.bench {
         return bench(&mut sim, &plan, runs.max(1), args.json);

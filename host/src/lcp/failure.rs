@@ -1,0 +1,66 @@
+//! The typed ways a complementarity solve can fail: never a silent wrong answer.
+
+/// Why [`crate::lcp::LcpSolver::solve`] returned no solution.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum LcpFailure {
+    /// The problem data is malformed (sizes, non-finite values); names what is wrong.
+    #[error("bad LCP input: {0}")]
+    BadInput(String),
+    /// The equality rows cannot be used to make the free variables basic: the free block has
+    /// rank below `n_free` (e.g. contact wrenches that do not span the plane).
+    #[error("the {n_free} equality rows are singular (rank-deficient free block)")]
+    SingularEqualities {
+        /// Number of free variables.
+        n_free: usize,
+    },
+    /// Lemke ended on a secondary ray (also after the retries) and the problem is too large for
+    /// the enumeration fallback.
+    #[error("Lemke ended on a secondary ray after {pivots} pivots; no fallback for n = {n}")]
+    SecondaryRay {
+        /// Pivots spent (all attempts).
+        pivots: usize,
+        /// Number of complementarity variables.
+        n: usize,
+    },
+    /// Lemke reached `max_pivots` and the problem is too large for the enumeration fallback.
+    #[error("pivot limit reached after {pivots} pivots; no fallback for n = {n}")]
+    PivotLimit {
+        /// Pivots spent (all attempts).
+        pivots: usize,
+        /// Number of complementarity variables.
+        n: usize,
+    },
+    /// Every method available for this size ran (Lemke, its retries, full enumeration of the
+    /// complementary bases) and none produced a verified solution.
+    #[error("no solution found: Lemke ({pivots} pivots) and enumeration of {bases} bases")]
+    NoSolutionFound {
+        /// Lemke pivots spent.
+        pivots: usize,
+        /// Complementary bases enumerated.
+        bases: usize,
+    },
+    /// Lemke terminated with a complementary basis but its answer (also after polishing) fails
+    /// the residual check, and no fallback produced a verified one.
+    #[error("answer failed verification: residual {residual:.3e} > tolerance {tol:.1e}")]
+    VerificationFailed {
+        /// Largest scaled residual of the best candidate.
+        residual: f64,
+        /// The tolerance it had to meet.
+        tol: f64,
+    },
+}
+
+impl LcpFailure {
+    /// A short snake_case name for status fields (`--json` output, logs).
+    pub fn status_name(&self) -> &'static str {
+        match self {
+            LcpFailure::BadInput(_) => "bad_input",
+            LcpFailure::SingularEqualities { .. } => "singular_equalities",
+            LcpFailure::SecondaryRay { .. } => "secondary_ray",
+            LcpFailure::PivotLimit { .. } => "pivot_limit",
+            LcpFailure::NoSolutionFound { .. } => "no_solution_found",
+            LcpFailure::VerificationFailed { .. } => "verification_failed",
+        }
+    }
+}

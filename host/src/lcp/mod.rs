@@ -1,0 +1,35 @@
+//! Mixed linear complementarity problems (MLCP) and our own solver for them.
+//!
+//! The quasi-static simulator (paper §II-A, Eq. 7–8) poses, at every time step, a mixed LCP:
+//! find `z = [u | λ]` (`u` free, `λ ≥ 0`) with `w = M z + q` such that the first `n_free`
+//! rows are equalities (`w_u = 0`) and the others are complementary (`w_λ ≥ 0 ⊥ λ ≥ 0`).
+//! This module solves it without outside numerics:
+//!
+//! 1. a block pivot makes the free variables basic (they never leave again),
+//! 2. lexicographic Lemke (complementary pivoting) on the rest, with a pivot limit,
+//! 3. if Lemke ends on a secondary ray or at its pivot limit: retries with other covering
+//!    vectors, then enumeration of complementary bases for small problems,
+//! 4. every candidate answer is verified against the original `M`, `q` and, when
+//!    the tableau's accumulated rounding spoils it, polished by a direct solve on its active
+//!    set. Only a verified answer is reported as solved; everything else is a typed
+//!    [`LcpFailure`].
+//!
+//! Conventions: matrices are dense, row-major `n × n`; a pure LCP is `n_free = 0`. Units are
+//! the caller's: the solver is scale-aware (residuals are relative, see [`Residuals`]).
+//! [`siconos`] reads the dense Siconos `.dat` format of the peer test suite; [`generate`]
+//! builds seeded peg-pushing step problems for tests and benchmarks.
+
+mod dense;
+mod enumerate;
+mod failure;
+pub mod generate;
+mod lemke;
+mod problem;
+pub mod siconos;
+mod solver;
+mod verify;
+
+pub use failure::LcpFailure;
+pub use problem::{LcpSettings, MlcpProblem};
+pub use solver::{LcpSolution, LcpSolver, SolveMethod};
+pub use verify::{Residuals, check as check_solution};

@@ -1,0 +1,196 @@
+//! [`LcpSolver`]: the reusable solver that runs Lemke, its fallbacks and the verification, in
+//! workspaces sized once.
+
+use super::dense::SetSolve;
+use super::enumerate::enumerate;
+use super::lemke::{Cover, LemkeEnd, Tableau};
+use super::verify::{self, Residuals};
+use super::{LcpFailure, LcpSettings, MlcpProblem};
+
+/// Which method produced a solution.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolveMethod {
+    /// Lemke with the covering vector of ones.
+    Lemke,
+    /// One of Lemke's retries with another covering vector.
+    LemkeRetry,
+    /// Enumeration of complementary bases.
+    Enumeration,
+}
+
+/// A verified answer, borrowed from the solver's buffers (valid until its next solve).
+#[derive(Debug, Clone, Copy)]
+pub struct LcpSolution<'a> {
+    /// `z` (length `n`): free part first, then the complementarity part (all `≥ 0`).
+    pub z: &'a [f64],
+    /// `w = M z + q` recomputed from the original data (free part ≈ 0).
+    pub w: &'a [f64],
+    /// Pivots spent, all attempts included (block pivot of the free variables too).
+    pub pivots: usize,
+    /// The verified scaled residuals (each `≤ settings.tol`).
+    pub residuals: Residuals,
+    /// What produced it.
+    pub method: SolveMethod,
+    /// Whether the tableau's answer needed the active-set polish to pass.
+    pub polished: bool,
+}
+
+/// A complementarity solver with reusable workspaces: construct once, call
+/// [`solve`](LcpSolver::solve) many times. A solve allocates only when `n` exceeds every
+/// size seen before (the buffers then grow once).
+#[derive(Debug)]
+pub struct LcpSolver {
+    settings: LcpSettings,
+    tab: Tableau,
+    set: SetSolve,
+    z: Vec<f64>,
+    w: Vec<f64>,
+    in_set: Vec<bool>,
+}
+
+/// How one Lemke attempt ended, for the failure report.
+#[derive(Debug, Clone, Copy)]
+enum Attempt {
+    Verified(Residuals, bool),
+    Unverified(f64),
+    Ended(LemkeEnd),
+}
+
+impl LcpSolver {
+    /// A solver with workspaces for problems of up to `capacity_n` variables.
+    pub fn new(capacity_n: usize, settings: LcpSettings) -> Self {
+        let mut s = LcpSolver {
+            settings,
+            tab: Tableau::with_capacity(capacity_n),
+            set: SetSolve::default(),
+            z: Vec::new(),
+            w: Vec::new(),
+            in_set: Vec::new(),
+        };
+        s.reserve(capacity_n);
+        s
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &LcpSettings {
+        &self.settings
+    }
+
+    /// Replaces the settings.
+    pub fn set_settings(&mut self, settings: LcpSettings) {
+        self.settings = settings;
+    }
+
+    fn reserve(&mut self, n: usize) {
+        if self.z.len() < n {
+            self.tab.reserve(n);
+            self.set.reserve(n);
+            self.z.resize(n, 0.0);
+            self.w.resize(n, 0.0);
+            self.in_set.resize(n, false);
+        }
+    }
+
+    /// Solves the mixed LCP `p`, returning a verified answer or the reason there is none.
+    pub fn solve(&mut self, p: &MlcpProblem<'_>) -> Result<LcpSolution<'_>, LcpFailure> {
+        p.validate()?;
+        self.settings.validate()?;
+        self.reserve(p.n);
+        let mut pivots = 0;
+        let mut worst = Attempt::Ended(LemkeEnd::Ray);
+        for k in 0..=self.settings.retries {
+            let (cover, method) = match k {
+                0 => (Cover::Ones, SolveMethod::Lemke),
+                _ => (Cover::Spread(k), SolveMethod::LemkeRetry),
+            };
+            let attempt = self.attempt(p, cover, &mut pivots)?;
+            match attempt {
+                Attempt::Verified(residuals, polished) => {
+                    return Ok(self.answer(p, pivots, residuals, method, polished));
+                }
+                Attempt::Unverified(_) => worst = attempt,
+                Attempt::Ended(_) if matches!(worst, Attempt::Ended(_)) => worst = attempt,
+                Attempt::Ended(_) => {}
+            }
+        }
+        if p.n_comp() <= self.settings.enumerate_max_n {
+            let n = p.n;
+            let e = enumerate(
+                p,
+                self.settings.tol,
+                &mut self.set,
+                &mut self.in_set[..n],
+                &mut self.z[..n],
+                &mut self.w[..n],
+            );
+            return match e.found {
+                Some(r) => Ok(self.answer(p, pivots, r, SolveMethod::Enumeration, false)),
+                None => Err(LcpFailure::NoSolutionFound { pivots, bases: e.bases }),
+            };
+        }
+        let n = p.n_comp();
+        Err(match worst {
+            Attempt::Unverified(residual) => {
+                LcpFailure::VerificationFailed { residual, tol: self.settings.tol }
+            }
+            Attempt::Ended(LemkeEnd::Limit) => LcpFailure::PivotLimit { pivots, n },
+            _ => LcpFailure::SecondaryRay { pivots, n },
+        })
+    }
+
+    fn answer(
+        &self,
+        p: &MlcpProblem<'_>,
+        pivots: usize,
+        residuals: Residuals,
+        method: SolveMethod,
+        polished: bool,
+    ) -> LcpSolution<'_> {
+        LcpSolution { z: &self.z[..p.n], w: &self.w[..p.n], pivots, residuals, method, polished }
+    }
+
+    /// One Lemke run with covering vector `cover`; on success `z`, `w` hold the answer.
+    fn attempt(
+        &mut self,
+        p: &MlcpProblem<'_>,
+        cover: Cover,
+        pivots: &mut usize,
+    ) -> Result<Attempt, LcpFailure> {
+        self.tab.load(p, self.settings.pivot_tol);
+        let block = self
+            .tab
+            .make_free_basic()
+            .ok_or(LcpFailure::SingularEqualities { n_free: p.n_free })?;
+        let (end, spent) = self.tab.lemke(self.settings.max_pivots, cover);
+        *pivots += block + spent;
+        if end != LemkeEnd::Solved {
+            return Ok(Attempt::Ended(end));
+        }
+        let n = p.n;
+        self.tab.extract_z(&mut self.z[..n]);
+        let first = self.verified(p);
+        if first.max() <= self.settings.tol {
+            return Ok(Attempt::Verified(first, false));
+        }
+        // Polish: solve directly on the active set Lemke identified.
+        self.tab.active_set(&mut self.in_set[..n]);
+        if self.set.solve(p, &self.in_set[..n], &mut self.z[..n]) {
+            let second = self.verified(p);
+            if second.max() <= self.settings.tol {
+                return Ok(Attempt::Verified(second, true));
+            }
+            return Ok(Attempt::Unverified(first.max().min(second.max())));
+        }
+        Ok(Attempt::Unverified(first.max()))
+    }
+
+    /// Clamps the complementarity part of `z` at zero, recomputes `w` and checks.
+    fn verified(&mut self, p: &MlcpProblem<'_>) -> Residuals {
+        let n = p.n;
+        for zi in &mut self.z[p.n_free..n] {
+            *zi = zi.max(0.0);
+        }
+        verify::check(p, &self.z[..n], &mut self.w[..n])
+    }
+}
