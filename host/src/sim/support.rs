@@ -45,7 +45,7 @@ impl SupportDistribution {
         let lb = cross(&(c - o), &(a - o)) / twice_area;
         let lc = 1.0 - la - lb;
         let forces = [la, lb, lc];
-        if forces.iter().any(|f| !(*f > 1e-6)) {
+        if forces.iter().any(|f| f.is_nan() || *f <= 1e-6) {
             return Err(Error::invalid(
                 "support",
                 format!(
