@@ -10,7 +10,7 @@ use mesopush_host::sim::{Fixture, Model, SimSettings, SimState, Simulator, Suppo
 const HALF_LEN: f64 = 807.5;
 
 fn open_plate() -> Fixture {
-    Fixture { walls: vec![], goal: rect(-1.0, -1.0, 1.0, 1.0).unwrap() }
+    Fixture { walls: vec![], goal: rect(-1.0, -1.0, 1.0, 1.0).unwrap(), insert_depth_um: 100.0 }
 }
 
 fn model(mu_probe: f64) -> Model {

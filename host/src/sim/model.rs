@@ -93,7 +93,11 @@ impl Default for Model {
     fn default() -> Self {
         Self {
             part: Part::default_peg(),
-            support: SupportDistribution::symmetric(PEG_LENGTH_UM / 6.0, PEG_WIDTH_UM / 3.0, 0.3),
+            // The nominal support found with the fixture reconstruction (docs/fixture.md).
+            support: SupportDistribution {
+                points_um: [[-250.0, 440.0], [50.0, -330.0], [250.0, 60.0]],
+                mu_surface: [0.3; 3],
+            },
             mu_probe: 0.8,
             mu_wall: 0.25,
             probe_radius_um: 12.5,

@@ -137,8 +137,7 @@ pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<R
         }
         travel_um += len;
     }
-    let peg_world = sim.model().part.polygon().transformed(&st.peg);
-    out.inserted = sim.fixture().inserted(&peg_world);
+    out.inserted = sim.fixture().inserted(&st.peg.position());
     out.final_pose = st.peg;
     Ok(out)
 }
