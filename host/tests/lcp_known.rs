@@ -184,6 +184,13 @@ fn bad_input_is_an_error_not_a_panic() {
             other => panic!("expected BadInput({want}), got {other:?}"),
         }
     }
+    // Non-finite values anywhere, including the tail the solver's lane-wise check ends on.
+    let mut m = vec![1.0; 9];
+    m[8] = f64::INFINITY;
+    let err = solver.solve(&lcp(&m, &[0.0; 3])).unwrap_err();
+    assert!(matches!(&err, LcpFailure::BadInput(msg) if msg.contains("M[2][2]")), "{err}");
+    let err = solver.solve(&lcp(&[1.0; 9], &[0.0, 0.0, f64::NAN])).unwrap_err();
+    assert!(matches!(&err, LcpFailure::BadInput(msg) if msg.contains("q[2]")), "{err}");
     solver.set_settings(LcpSettings { tol: f64::NAN, ..Default::default() });
     assert!(matches!(solver.solve(&lcp(&[1.0], &[1.0])), Err(LcpFailure::BadInput(_))));
 }

@@ -25,6 +25,23 @@ impl MlcpProblem<'_> {
 
     /// Checks sizes and finiteness; the message names the first problem found.
     pub fn validate(&self) -> Result<(), LcpFailure> {
+        self.validate_sizes()?;
+        if let Some(k) = self.m.iter().position(|v| !v.is_finite()) {
+            return Err(LcpFailure::BadInput(format!(
+                "M[{}][{}] = {} is not finite",
+                k / self.n,
+                k % self.n,
+                self.m[k]
+            )));
+        }
+        if let Some(i) = self.q.iter().position(|v| !v.is_finite()) {
+            return Err(LcpFailure::BadInput(format!("q[{i}] = {} is not finite", self.q[i])));
+        }
+        Ok(())
+    }
+
+    /// Checks the sizes only (`O(1)`); the solver checks finiteness while loading.
+    pub fn validate_sizes(&self) -> Result<(), LcpFailure> {
         if self.n_free > self.n {
             return Err(LcpFailure::BadInput(format!(
                 "n_free = {} exceeds n = {}",
@@ -44,17 +61,6 @@ impl MlcpProblem<'_> {
                 self.q.len(),
                 self.n
             )));
-        }
-        if let Some(k) = self.m.iter().position(|v| !v.is_finite()) {
-            return Err(LcpFailure::BadInput(format!(
-                "M[{}][{}] = {} is not finite",
-                k / self.n,
-                k % self.n,
-                self.m[k]
-            )));
-        }
-        if let Some(i) = self.q.iter().position(|v| !v.is_finite()) {
-            return Err(LcpFailure::BadInput(format!("q[{i}] = {} is not finite", self.q[i])));
         }
         Ok(())
     }

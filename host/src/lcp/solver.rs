@@ -94,7 +94,7 @@ impl LcpSolver {
 
     /// Solves the mixed LCP `p`, returning a verified answer or the reason there is none.
     pub fn solve(&mut self, p: &MlcpProblem<'_>) -> Result<LcpSolution<'_>, LcpFailure> {
-        p.validate()?;
+        p.validate_sizes()?;
         self.settings.validate()?;
         self.reserve(p.n);
         let mut pivots = 0;
@@ -157,7 +157,10 @@ impl LcpSolver {
         cover: Cover,
         pivots: &mut usize,
     ) -> Result<Attempt, LcpFailure> {
-        self.tab.load(p, self.settings.pivot_tol);
+        if !self.tab.load(p, self.settings.pivot_tol) {
+            // Names the non-finite entry.
+            p.validate()?;
+        }
         let block = self
             .tab
             .make_free_basic()
