@@ -52,3 +52,40 @@ fn steps_with_fixtures_verify_or_fail_honestly() {
         assert!(solved > 0, "fixtures {fixtures}: nothing solved");
     }
 }
+
+#[test]
+fn warm_start_reuses_an_active_set_and_falls_back_when_it_is_wrong() {
+    use mesopush_host::lcp::SolveMethod;
+    let mut solver = LcpSolver::new(34, LcpSettings::default());
+    let mut warm_hits = 0;
+    for seed in 0..300u64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(50_000 + seed);
+        let step = generate::random_step(&mut rng, 0);
+        let cold = solver.solve(&step.problem()).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let (z_cold, active) = (cold.z.to_vec(), cold.active.to_vec());
+        // Same problem, its own active set: one linear solve reproduces the answer.
+        let warm = solver.solve_warm(&step.problem(), &active).unwrap();
+        assert_eq!(warm.method, SolveMethod::WarmStart, "seed {seed}");
+        assert_eq!(warm.pivots, 0);
+        for (a, b) in warm.z.iter().zip(&z_cold) {
+            assert!((a - b).abs() <= 1e-9 * (1.0 + b.abs()), "seed {seed}: {a} vs {b}");
+        }
+        // The next step: the probe pushes 3 % further. Warm or not, the answer verifies.
+        let mut next = step.clone();
+        next.q[3] *= 1.03;
+        let sol = solver.solve_warm(&next.problem(), &active).unwrap();
+        assert!(residual(3, &next.m, &next.q, sol.z) < 1e-9, "seed {seed}");
+        warm_hits += usize::from(sol.method == SolveMethod::WarmStart);
+        // A useless guess (nothing active) falls back to Lemke.
+        let none = vec![false; step.n];
+        let sol = solver.solve_warm(&step.problem(), &none).unwrap();
+        assert_ne!(sol.method, SolveMethod::WarmStart, "seed {seed}");
+        assert!(residual(3, &step.m, &step.q, sol.z) < 1e-9, "seed {seed}");
+    }
+    println!("warm start kept the active set on {warm_hits} of 300 perturbed steps");
+    let err = solver.solve_warm(
+        &generate::random_step(&mut ChaCha8Rng::seed_from_u64(1), 0).problem(),
+        &[true],
+    );
+    assert!(matches!(err, Err(LcpFailure::BadInput(_))));
+}

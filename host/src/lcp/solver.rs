@@ -3,7 +3,7 @@
 
 use super::dense::SetSolve;
 use super::enumerate::enumerate;
-use super::lemke::{Cover, LemkeEnd, Tableau};
+use super::lemke::{Cover, LemkeEnd, Tableau, all_finite};
 use super::verify::{self, Residuals};
 use super::{LcpFailure, LcpSettings, MlcpProblem};
 
@@ -17,6 +17,8 @@ pub enum SolveMethod {
     LemkeRetry,
     /// Enumeration of complementary bases.
     Enumeration,
+    /// The caller's guess of the active set ([`LcpSolver::solve_warm`]), verified.
+    WarmStart,
 }
 
 /// A verified answer, borrowed from the solver's buffers (valid until its next solve).
@@ -26,6 +28,9 @@ pub struct LcpSolution<'a> {
     pub z: &'a [f64],
     /// `w = M z + q` recomputed from the original data (free part ≈ 0).
     pub w: &'a [f64],
+    /// The answer's complementary basis: `true` where `z_i` is basic (so `w_i = 0`; always
+    /// for free variables). Pass it to [`LcpSolver::solve_warm`] for the next, similar problem.
+    pub active: &'a [bool],
     /// Pivots spent, all attempts included (block pivot of the free variables too).
     pub pivots: usize,
     /// The verified scaled residuals (each `≤ settings.tol`).
@@ -139,6 +144,40 @@ impl LcpSolver {
         })
     }
 
+    /// Like [`solve`](Self::solve), but first tries the active set `guess` (length `n`; e.g.
+    /// the previous step's [`LcpSolution::active`]): one linear solve on it, accepted only if
+    /// the answer verifies; otherwise the full solve runs. Consecutive simulator steps
+    /// usually keep their active set, which makes this several times cheaper than Lemke.
+    pub fn solve_warm(
+        &mut self,
+        p: &MlcpProblem<'_>,
+        guess: &[bool],
+    ) -> Result<LcpSolution<'_>, LcpFailure> {
+        p.validate_sizes()?;
+        self.settings.validate()?;
+        if guess.len() != p.n {
+            return Err(LcpFailure::BadInput(format!(
+                "active-set guess has {} entries, expected n = {}",
+                guess.len(),
+                p.n
+            )));
+        }
+        if !(all_finite(p.m) && all_finite(p.q)) {
+            p.validate()?;
+        }
+        self.reserve(p.n);
+        let n = p.n;
+        self.in_set[..n].copy_from_slice(guess);
+        self.in_set[..p.n_free].fill(true);
+        if self.set.solve(p, &self.in_set[..n], &mut self.z[..n]) {
+            let r = self.verified(p);
+            if r.max() <= self.settings.tol {
+                return Ok(self.answer(p, 0, r, SolveMethod::WarmStart, false));
+            }
+        }
+        self.solve(p)
+    }
+
     fn answer(
         &self,
         p: &MlcpProblem<'_>,
@@ -147,7 +186,15 @@ impl LcpSolver {
         method: SolveMethod,
         polished: bool,
     ) -> LcpSolution<'_> {
-        LcpSolution { z: &self.z[..p.n], w: &self.w[..p.n], pivots, residuals, method, polished }
+        LcpSolution {
+            z: &self.z[..p.n],
+            w: &self.w[..p.n],
+            active: &self.in_set[..p.n],
+            pivots,
+            residuals,
+            method,
+            polished,
+        }
     }
 
     /// One Lemke run with covering vector `cover`; on success `z`, `w` hold the answer.
@@ -172,12 +219,12 @@ impl LcpSolver {
         }
         let n = p.n;
         self.tab.extract_z(&mut self.z[..n]);
+        self.tab.active_set(&mut self.in_set[..n]);
         let first = self.verified(p);
         if first.max() <= self.settings.tol {
             return Ok(Attempt::Verified(first, false));
         }
         // Polish: solve directly on the active set Lemke identified.
-        self.tab.active_set(&mut self.in_set[..n]);
         if self.set.solve(p, &self.in_set[..n], &mut self.z[..n]) {
             let second = self.verified(p);
             if second.max() <= self.settings.tol {
