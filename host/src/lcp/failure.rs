@@ -52,6 +52,24 @@ pub enum LcpFailure {
 }
 
 impl LcpFailure {
+    /// Lemke pivots spent before giving up, when the failure came from pivoting.
+    pub fn pivots(&self) -> Option<usize> {
+        match self {
+            LcpFailure::SecondaryRay { pivots, .. }
+            | LcpFailure::PivotLimit { pivots, .. }
+            | LcpFailure::NoSolutionFound { pivots, .. } => Some(*pivots),
+            _ => None,
+        }
+    }
+
+    /// The best residual reached, for [`LcpFailure::VerificationFailed`].
+    pub fn residual(&self) -> Option<f64> {
+        match self {
+            LcpFailure::VerificationFailed { residual, .. } => Some(*residual),
+            _ => None,
+        }
+    }
+
     /// A short snake_case name for status fields (`--json` output, logs).
     pub fn status_name(&self) -> &'static str {
         match self {

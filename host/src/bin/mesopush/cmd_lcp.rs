@@ -75,7 +75,7 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
         }),
         Err(f) => json!({
             "file": file, "n": lcp.n, "status": f.status_name(), "message": f.to_string(),
-            "z": null,
+            "z": null, "pivots": f.pivots(), "residual": f.residual(),
         }),
     };
     if let Some(median_us) = timing {
