@@ -65,3 +65,13 @@ fn block_storage_and_bad_files_are_clear_errors() {
         assert!(err.contains(name) && err.contains(want), "{name}: {err}");
     }
 }
+
+#[test]
+fn mlcp_files_are_solved_with_the_mlcp_flag() {
+    let file =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/lcp-suite/mlcp/m2n1_mlcp.dat");
+    let out = run(&["--mlcp", "--json"], &file);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let v = json(&out);
+    assert_eq!((v["status"].as_str(), v["n_free"].as_u64()), (Some("solved"), Some(1)));
+}

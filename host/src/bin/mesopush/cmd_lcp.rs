@@ -1,4 +1,4 @@
-//! `mesopush lcp solve FILE`: solve an LCP from a dense Siconos `.dat` file with our solver
+//! `mesopush lcp solve FILE`: solve an (M)LCP from a dense Siconos `.dat` file with our solver
 //! and print the verified answer (or the named failure), optionally timing repeated solves.
 
 use std::path::PathBuf;
@@ -18,8 +18,9 @@ pub(crate) struct LcpArgs {
 
 #[derive(Debug, Subcommand)]
 enum LcpCommand {
-    /// Solve the LCP in a dense Siconos `.dat` file (Lemke, then fallbacks; every answer is
-    /// verified). Exit status: 0 solved, 2 no verified solution (status names why), 1 error.
+    /// Solve the LCP (or, with --mlcp, the mixed LCP) in a dense Siconos `.dat` file (Lemke,
+    /// then fallbacks; every answer is verified). Exit status: 0 solved, 2 no verified
+    /// solution (status names why), 1 error.
     Solve(SolveArgs),
 }
 
@@ -27,6 +28,9 @@ enum LcpCommand {
 struct SolveArgs {
     /// The problem file (Siconos dense format: n, 0, n n n n, M column-major, q).
     file: PathBuf,
+    /// The file is a Siconos MLCP (`*_mlcp.dat`: equality rows first, then complementarity).
+    #[arg(long)]
+    mlcp: bool,
     /// Print a JSON summary (status, z, pivots, residuals) instead of text.
     #[arg(long)]
     json: bool,
@@ -51,7 +55,12 @@ pub(crate) fn run(args: LcpArgs) -> anyhow::Result<()> {
 }
 
 fn solve(a: SolveArgs) -> anyhow::Result<()> {
-    let lcp = siconos::read(&a.file)?;
+    let lcp = if a.mlcp {
+        siconos::read_mlcp(&a.file)?
+    } else {
+        let l = siconos::read(&a.file)?;
+        siconos::SiconosMlcp { n_free: 0, n: l.n, m: l.m, q: l.q }
+    };
     let settings = LcpSettings {
         max_pivots: a.max_pivots,
         tol: a.tol,
@@ -69,7 +78,7 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
     let solved = outcome.is_ok();
     let mut summary = match &outcome {
         Ok(sol) => json!({
-            "file": file, "n": lcp.n, "status": "solved", "method": sol.method,
+            "file": file, "n": lcp.n, "n_free": lcp.n_free, "status": "solved", "method": sol.method,
             "z": sol.z, "pivots": sol.pivots, "polished": sol.polished,
             "residual": sol.residuals.max(), "residuals": sol.residuals,
         }),
@@ -96,7 +105,7 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
 }
 
 /// Solves `runs` times and returns the median wall time per solve in µs.
-fn time_solves(solver: &mut LcpSolver, lcp: &siconos::SiconosLcp, runs: usize) -> f64 {
+fn time_solves(solver: &mut LcpSolver, lcp: &siconos::SiconosMlcp, runs: usize) -> f64 {
     let p = lcp.problem();
     let mut times: Vec<f64> = (0..runs)
         .map(|_| {
