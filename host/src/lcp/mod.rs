@@ -16,8 +16,25 @@
 //!
 //! Conventions: matrices are dense, row-major `n × n`; a pure LCP is `n_free = 0`. Units are
 //! the caller's: the solver is scale-aware (residuals are relative, see [`Residuals`]).
-//! [`siconos`] reads the dense Siconos `.dat` format of the peer test suite; [`generate`]
+//! [`siconos`] reads the dense Siconos `.dat` formats of the peer test suite; [`generate`]
 //! builds seeded peg-pushing step problems for tests and benchmarks.
+//!
+//! Use one [`LcpSolver`] per thread and reuse it: its buffers are sized once, and a solve
+//! allocates nothing unless `n` grows. For a sequence of similar problems (simulator steps),
+//! [`LcpSolver::solve_warm`] with the previous [`LcpSolution::active`] is a verified shortcut.
+//!
+//! ```
+//! use mesopush_host::lcp::{LcpSettings, LcpSolver, MlcpProblem};
+//!
+//! // One free variable u and one complementarity pair (zero free–free block, as in the
+//! // simulator): 0 = λ − 1 (force balance), w = −u + λ ≥ 0 ⊥ λ ≥ 0. So λ = 1 and u = 1.
+//! let m = [0.0, 1.0, -1.0, 1.0];
+//! let q = [-1.0, 0.0];
+//! let mut solver = LcpSolver::new(2, LcpSettings::default());
+//! let sol = solver.solve(&MlcpProblem { n_free: 1, n: 2, m: &m, q: &q }).unwrap();
+//! assert!((sol.z[0] - 1.0).abs() < 1e-12 && (sol.z[1] - 1.0).abs() < 1e-12);
+//! assert!(sol.residuals.max() <= solver.settings().tol);
+//! ```
 
 mod dense;
 mod enumerate;
