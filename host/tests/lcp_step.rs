@@ -89,3 +89,33 @@ fn warm_start_reuses_an_active_set_and_falls_back_when_it_is_wrong() {
     );
     assert!(matches!(err, Err(LcpFailure::BadInput(_))));
 }
+
+#[test]
+fn answers_do_not_depend_on_the_units_of_the_problem() {
+    // Other units for forces (λ → λ/s: comp columns of M times s) and for the whole system
+    // (w → t·w: M and q times t) give an equivalent problem; relative tolerances must keep
+    // every step solvable and verified, with the same peg motion Δq (the friction forces
+    // need not be unique: several direction combinations can give the same wrench).
+    let mut solver = LcpSolver::new(34, LcpSettings::default());
+    for seed in 0..200u64 {
+        let step = generate::random_step(&mut ChaCha8Rng::seed_from_u64(70_000 + seed), 0);
+        let base = solver.solve(&step.problem()).unwrap().z.to_vec();
+        for (s_force, t_all) in [(1e-6, 1.0), (1e6, 1.0), (1.0, 1e-6), (1.0, 1e6), (1e6, 1e-6)] {
+            let mut p = step.clone();
+            let n = p.n;
+            for i in 0..n {
+                for j in 0..n {
+                    p.m[i * n + j] *= t_all * if j >= 3 { s_force } else { 1.0 };
+                }
+                p.q[i] *= t_all;
+            }
+            let at = format!("seed {seed} s {s_force:e} t {t_all:e}");
+            let sol = solver.solve(&p.problem()).unwrap_or_else(|e| panic!("{at}: {e}"));
+            let r = residual(3, &p.m, &p.q, sol.z);
+            assert!(r < 1e-9, "{at}: residual {r:e}");
+            for (j, (a, b)) in sol.z.iter().zip(&base).enumerate().take(3) {
+                assert!((a - b).abs() <= 1e-6 * (1.0 + b.abs()), "{at}: Δq[{j}] {a} vs {b}");
+            }
+        }
+    }
+}

@@ -7,8 +7,9 @@
 //!
 //! 1. a block pivot makes the free variables basic (they never leave again),
 //! 2. lexicographic Lemke (complementary pivoting) on the rest, with a pivot limit,
-//! 3. if Lemke ends on a secondary ray or at its pivot limit: retries with other covering
-//!    vectors, then enumeration of complementary bases for small problems,
+//! 3. if Lemke ends on a secondary ray, at its pivot limit or with an answer that fails
+//!    verification: a retry on an equilibrated (rescaled, equivalent) problem, retries with
+//!    other covering vectors, then enumeration of complementary bases for small problems,
 //! 4. every candidate answer is verified against the original `M`, `q` and, when
 //!    the tableau's accumulated rounding spoils it, polished by a direct solve on its active
 //!    set. Only a verified answer is reported as solved; everything else is a typed
@@ -42,6 +43,7 @@ mod failure;
 pub mod generate;
 mod lemke;
 mod problem;
+mod scale;
 pub mod siconos;
 mod solver;
 mod verify;

@@ -4,6 +4,7 @@
 use super::dense::SetSolve;
 use super::enumerate::enumerate;
 use super::lemke::{Cover, LemkeEnd, Tableau, all_finite};
+use super::scale::Equilibration;
 use super::verify::{self, Residuals};
 use super::{LcpFailure, LcpSettings, MlcpProblem};
 
@@ -52,6 +53,7 @@ pub struct LcpSolver {
     z: Vec<f64>,
     w: Vec<f64>,
     in_set: Vec<bool>,
+    equilibration: Equilibration,
 }
 
 /// How one Lemke attempt ended, for the failure report.
@@ -72,6 +74,7 @@ impl LcpSolver {
             z: Vec::new(),
             w: Vec::new(),
             in_set: Vec::new(),
+            equilibration: Equilibration::default(),
         };
         s.reserve(capacity_n);
         s
@@ -105,11 +108,17 @@ impl LcpSolver {
         let mut pivots = 0;
         let mut worst = Attempt::Ended(LemkeEnd::Ray);
         for k in 0..=self.settings.retries {
+            // Attempt 0 as given; then the equilibrated problem, first with the classic
+            // covering vector, then with spread ones.
             let (cover, method) = match k {
                 0 => (Cover::Ones, SolveMethod::Lemke),
-                _ => (Cover::Spread(k), SolveMethod::LemkeRetry),
+                1 => (Cover::Ones, SolveMethod::LemkeRetry),
+                _ => (Cover::Spread(k - 1), SolveMethod::LemkeRetry),
             };
-            let attempt = self.attempt(p, cover, &mut pivots)?;
+            if k == 1 {
+                self.equilibration.compute(p);
+            }
+            let attempt = self.attempt(p, k > 0, cover, &mut pivots)?;
             match attempt {
                 Attempt::Verified(residuals, polished) => {
                     return Ok(self.answer(p, pivots, residuals, method, polished));
@@ -197,14 +206,30 @@ impl LcpSolver {
         }
     }
 
-    /// One Lemke run with covering vector `cover`; on success `z`, `w` hold the answer.
+    /// One Lemke run with covering vector `cover`, on the equilibrated problem if `scaled`;
+    /// on success `z`, `w` hold the answer (verified against `p` itself).
     fn attempt(
         &mut self,
         p: &MlcpProblem<'_>,
+        scaled: bool,
         cover: Cover,
         pivots: &mut usize,
     ) -> Result<Attempt, LcpFailure> {
-        if !self.tab.load(p, self.settings.pivot_tol) {
+        let eq = std::mem::take(&mut self.equilibration);
+        let result = self.attempt_on(p, if scaled { Some(&eq) } else { None }, cover, pivots);
+        self.equilibration = eq;
+        result
+    }
+
+    fn attempt_on(
+        &mut self,
+        p: &MlcpProblem<'_>,
+        eq: Option<&Equilibration>,
+        cover: Cover,
+        pivots: &mut usize,
+    ) -> Result<Attempt, LcpFailure> {
+        let sp = eq.map_or(*p, |e| e.problem(p));
+        if !self.tab.load(&sp, self.settings.pivot_tol) {
             // Names the non-finite entry.
             p.validate()?;
         }
@@ -220,12 +245,14 @@ impl LcpSolver {
         let n = p.n;
         self.tab.extract_z(&mut self.z[..n]);
         self.tab.active_set(&mut self.in_set[..n]);
+        unscale(eq, &mut self.z[..n]);
         let first = self.verified(p);
         if first.max() <= self.settings.tol {
             return Ok(Attempt::Verified(first, false));
         }
         // Polish: solve directly on the active set Lemke identified.
-        if self.set.solve(p, &self.in_set[..n], &mut self.z[..n]) {
+        if self.set.solve(&sp, &self.in_set[..n], &mut self.z[..n]) {
+            unscale(eq, &mut self.z[..n]);
             let second = self.verified(p);
             if second.max() <= self.settings.tol {
                 return Ok(Attempt::Verified(second, true));
@@ -242,5 +269,14 @@ impl LcpSolver {
             *zi = zi.max(0.0);
         }
         verify::check(p, &self.z[..n], &mut self.w[..n])
+    }
+}
+
+/// `z = C z̃` when the attempt ran on the equilibrated problem.
+fn unscale(eq: Option<&Equilibration>, z: &mut [f64]) {
+    if let Some(e) = eq {
+        for (zi, c) in z.iter_mut().zip(&e.col) {
+            *zi *= c;
+        }
     }
 }
