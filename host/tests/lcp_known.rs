@@ -42,19 +42,29 @@ fn murty_takes_exactly_two_to_the_n_pivots() {
 }
 
 #[test]
-fn pivot_limit_is_reported_then_enumeration_rescues_small_problems() {
+fn pivot_limit_is_reported_and_each_fallback_rescues_on_its_own() {
     let (m, q) = murty(10);
-    let strict =
-        LcpSettings { max_pivots: 100, enumerate_max_n: 0, retries: 0, ..Default::default() };
-    let mut solver = LcpSolver::new(10, strict);
+    let lemke_only = LcpSettings {
+        max_pivots: 100,
+        retries: 0,
+        enumerate_max_n: 0,
+        newton_iterations: 0,
+        ..Default::default()
+    };
+    let mut solver = LcpSolver::new(10, lemke_only);
     match solver.solve(&lcp(&m, &q)) {
         Err(LcpFailure::PivotLimit { pivots, n }) => assert_eq!((pivots, n), (100, 10)),
         other => panic!("expected PivotLimit, got {other:?}"),
     }
-    solver.set_settings(LcpSettings { max_pivots: 100, retries: 0, ..Default::default() });
-    let sol = solver.solve(&lcp(&m, &q)).expect("enumeration finds Murty's solution");
-    assert_eq!(sol.method, SolveMethod::Enumeration);
-    assert_eq!(sol.z[9], 1024.0);
+    for (settings, method) in [
+        (LcpSettings { enumerate_max_n: 16, ..lemke_only }, SolveMethod::Enumeration),
+        (LcpSettings { newton_iterations: 100, ..lemke_only }, SolveMethod::Newton),
+    ] {
+        solver.set_settings(settings);
+        let sol = solver.solve(&lcp(&m, &q)).unwrap_or_else(|e| panic!("{method:?}: {e}"));
+        assert_eq!(sol.method, method);
+        assert_eq!(sol.z[9], 1024.0, "{method:?}");
+    }
 }
 
 #[test]

@@ -14,8 +14,8 @@ pub enum LcpFailure {
         /// Number of free variables.
         n_free: usize,
     },
-    /// Lemke ended on a secondary ray (also after the retries) and the problem is too large for
-    /// the enumeration fallback.
+    /// Lemke ended on a secondary ray (also after the retries), the problem is too large for
+    /// the enumeration fallback and the Newton fallback found no verified answer.
     #[error("Lemke ended on a secondary ray after {pivots} pivots; no fallback for n = {n}")]
     SecondaryRay {
         /// Pivots spent (all attempts).
@@ -23,7 +23,8 @@ pub enum LcpFailure {
         /// Number of complementarity variables.
         n: usize,
     },
-    /// Lemke reached `max_pivots` and the problem is too large for the enumeration fallback.
+    /// Lemke reached `max_pivots`, the problem is too large for the enumeration fallback and
+    /// the Newton fallback found no verified answer.
     #[error("pivot limit reached after {pivots} pivots; no fallback for n = {n}")]
     PivotLimit {
         /// Pivots spent (all attempts).

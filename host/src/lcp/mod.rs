@@ -9,7 +9,9 @@
 //! 2. lexicographic Lemke (complementary pivoting) on the rest, with a pivot limit,
 //! 3. if Lemke ends on a secondary ray, at its pivot limit or with an answer that fails
 //!    verification: a retry on an equilibrated (rescaled, equivalent) problem, retries with
-//!    other covering vectors, then enumeration of complementary bases for small problems,
+//!    other covering vectors, then enumeration of complementary bases for small problems
+//!    or, for larger ones, a Fischer–Burmeister Newton search whose active set is re-solved
+//!    exactly,
 //! 4. every candidate answer is verified against the original `M`, `q` and, when
 //!    the tableau's accumulated rounding spoils it, polished by a direct solve on its active
 //!    set. Only a verified answer is reported as solved; everything else is a typed
@@ -42,6 +44,7 @@ mod enumerate;
 mod failure;
 pub mod generate;
 mod lemke;
+mod newton;
 mod problem;
 mod scale;
 pub mod siconos;

@@ -81,6 +81,9 @@ pub struct LcpSettings {
     /// Largest number of complementarity variables for which the enumeration fallback runs
     /// (`2ⁿ` bases); `0` disables it. Default 16.
     pub enumerate_max_n: usize,
+    /// Iterations of the Fischer–Burmeister Newton fallback, per start (two starts), for
+    /// problems too large to enumerate; `0` disables it. Default 100.
+    pub newton_iterations: usize,
     /// Extra Lemke attempts, each with another (deterministic) covering vector, when Lemke
     /// ends on a secondary ray, at the pivot limit or with an answer that fails verification.
     /// Default 8.
@@ -95,6 +98,7 @@ impl Default for LcpSettings {
             pivot_tol: 1e-11,
             enumerate_max_n: 16,
             retries: 8,
+            newton_iterations: 100,
         }
     }
 }

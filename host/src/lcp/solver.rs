@@ -4,6 +4,7 @@
 use super::dense::SetSolve;
 use super::enumerate::enumerate;
 use super::lemke::{Cover, LemkeEnd, Tableau, all_finite};
+use super::newton::FbNewton;
 use super::scale::Equilibration;
 use super::verify::{self, Residuals};
 use super::{LcpFailure, LcpSettings, MlcpProblem};
@@ -20,6 +21,8 @@ pub enum SolveMethod {
     Enumeration,
     /// The caller's guess of the active set ([`LcpSolver::solve_warm`]), verified.
     WarmStart,
+    /// The Fischer–Burmeister Newton fallback's active set, solved exactly and verified.
+    Newton,
 }
 
 /// A verified answer, borrowed from the solver's buffers (valid until its next solve).
@@ -54,6 +57,7 @@ pub struct LcpSolver {
     w: Vec<f64>,
     in_set: Vec<bool>,
     equilibration: Equilibration,
+    newton: FbNewton,
 }
 
 /// How one Lemke attempt ended, for the failure report.
@@ -75,6 +79,7 @@ impl LcpSolver {
             w: Vec::new(),
             in_set: Vec::new(),
             equilibration: Equilibration::default(),
+            newton: FbNewton::default(),
         };
         s.reserve(capacity_n);
         s
@@ -143,6 +148,9 @@ impl LcpSolver {
                 None => Err(LcpFailure::NoSolutionFound { pivots, bases: e.bases }),
             };
         }
+        if let Some(r) = self.newton_fallback(p) {
+            return Ok(self.answer(p, pivots, r, SolveMethod::Newton, true));
+        }
         let n = p.n_comp();
         Err(match worst {
             Attempt::Unverified(residual) => {
@@ -204,6 +212,33 @@ impl LcpSolver {
             method,
             polished,
         }
+    }
+
+    /// The Newton fallback from two starts (`z = 0`; `z = 1` on the complementarity part);
+    /// its active set is solved exactly and verified. `z`, `w`, `in_set` hold the answer.
+    fn newton_fallback(&mut self, p: &MlcpProblem<'_>) -> Option<Residuals> {
+        let (n, iterations) = (p.n, self.settings.newton_iterations);
+        if iterations == 0 {
+            return None;
+        }
+        for start in [0.0, 1.0] {
+            self.z[..p.n_free].fill(0.0);
+            self.z[p.n_free..n].fill(start);
+            let found = self.newton.run(
+                p,
+                &mut self.z[..n],
+                &mut self.in_set[..n],
+                iterations,
+                self.settings.tol,
+            );
+            if found && self.set.solve(p, &self.in_set[..n], &mut self.z[..n]) {
+                let r = self.verified(p);
+                if r.max() <= self.settings.tol {
+                    return Some(r);
+                }
+            }
+        }
+        None
     }
 
     /// One Lemke run with covering vector `cover`, on the equilibrated problem if `scaled`;
