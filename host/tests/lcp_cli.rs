@@ -75,3 +75,15 @@ fn mlcp_files_are_solved_with_the_mlcp_flag() {
     let v = json(&out);
     assert_eq!((v["status"].as_str(), v["n_free"].as_u64()), (Some("solved"), Some(1)));
 }
+
+#[test]
+fn steps_benchmark_reports_every_problem_solved() {
+    let out = Command::new(env!("CARGO_BIN_EXE_mesopush"))
+        .args(["lcp", "steps", "--count", "20", "--runs", "3", "--json"])
+        .output()
+        .expect("run mesopush");
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let v = json(&out);
+    assert_eq!((v["solved"].as_u64(), v["failed"].as_u64()), (Some(20), Some(0)));
+    assert!(v["solve_us_median"].as_f64().unwrap() > 0.0);
+}

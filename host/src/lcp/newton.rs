@@ -6,7 +6,8 @@
 //! `a, b ≥ 0` and `ab = 0`), `w = M z + q`. Each iteration solves `J d = −Φ` with an element
 //! of the generalised Jacobian (LU), then backtracks on `½‖Φ‖²`; when the Newton direction is
 //! unusable it takes the steepest-descent step `−JᵀΦ`. From the final iterate the active
-//! set `{i : zᵢ > wᵢ}` is read and handed back for the exact solve.
+//! set `{i : zᵢ > wᵢ}` is read and handed back for the exact solve. A run stops early when
+//! ten iterations fail to halve the merit (no answer near: typically a jammed step).
 
 use super::MlcpProblem;
 use super::dense::lu_solve;
@@ -41,7 +42,15 @@ impl FbNewton {
         self.lu.resize(n * n, 0.0);
         let scale = p.q.iter().chain(p.m).fold(1e-300f64, |a, v| a.max(v.abs()));
         let mut merit = self.residual(p, z);
-        for _ in 0..iterations {
+        let mut checkpoint = merit;
+        for k in 0..iterations {
+            // Give up on stagnation: less than a halving of the merit in 10 iterations.
+            if k > 0 && k % 10 == 0 {
+                if merit > 0.5 * checkpoint {
+                    return false;
+                }
+                checkpoint = merit;
+            }
             if self.phi.iter().fold(0.0f64, |a, v| a.max(v.abs())) <= tol * scale {
                 for i in 0..n {
                     active[i] = i < p.n_free || z[i] > self.w[i];
