@@ -119,3 +119,43 @@ fn answers_do_not_depend_on_the_units_of_the_problem() {
         }
     }
 }
+
+#[test]
+fn symmetric_push_through_the_com_has_the_translation_answer() {
+    use generate::{PlanarContact, Support, assemble};
+    // Supports symmetric about the x axis, COM at the origin (forces from statics: 1/4, 1/4,
+    // 1/2), surface friction 0.3; a frictionless probe pushes 1 µm along +x through the COM.
+    // Known answer: the peg follows the probe, Δq = (1, 0, 0); the probe carries the total
+    // support friction 0.3 (weights); friction points along −x at every support; every
+    // support slides at 1 µm. The 8-direction friction polygon makes the answer non-unique
+    // (the solver may return another verified one, e.g. a slight pivot where a support's
+    // velocity sits on a polygon vertex); every answer must still move the contact point
+    // with the probe (dx = 1: the peg has to move, so the probe pushes, so its gap closes).
+    let sup = |x: f64, y: f64, f: f64| Support { point_um: [x, y], normal_force: f, mu: 0.3 };
+    let supports = [sup(-400.0, -200.0, 0.25), sup(-400.0, 200.0, 0.25), sup(400.0, 0.0, 0.5)];
+    let probe = PlanarContact {
+        point_um: [-807.5, 0.0],
+        normal: [1.0, 0.0],
+        mu: 0.0,
+        gap_um: -1.0,
+        drive_um: 0.0,
+    };
+    let step = assemble(&[probe], &supports, 8);
+    assert_eq!(step.n, 3 + 1 + 2 + 24 + 1 + 3);
+    // Layout: Δq 0..3 | λ_n 3 | probe λ_f 4..6 | support λ_f 6..30 (8 per support, direction
+    // 4 is −x) | σ probe 30 | σ supports 31..34.
+    let mut z_known = vec![0.0; step.n];
+    z_known[0] = 1.0;
+    z_known[3] = 0.3;
+    for (k, s) in supports.iter().enumerate() {
+        z_known[6 + 8 * k + 4] = 0.3 * s.normal_force;
+        z_known[31 + k] = 1.0;
+    }
+    let r = residual(3, &step.m, &step.q, &z_known);
+    assert!(r < 1e-12, "the translation answer violates the assembled LCP: {r:e}");
+
+    let mut solver = LcpSolver::new(step.n, LcpSettings::default());
+    let sol = solver.solve(&step.problem()).unwrap();
+    assert!(residual(3, &step.m, &step.q, sol.z) < 1e-9);
+    assert!((sol.z[0] - 1.0).abs() < 1e-9 && sol.z[3] > 0.0, "{:?}", &sol.z[..4]);
+}
