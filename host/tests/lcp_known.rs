@@ -218,3 +218,15 @@ fn solver_grows_beyond_its_capacity_and_repeats_bit_identically() {
     let empty = solver.solve(&lcp(&[], &[])).unwrap();
     assert!(empty.z.is_empty());
 }
+
+#[test]
+fn only_free_variables_is_a_linear_solve() {
+    // 2u₀ + u₁ = 1, u₀ + 3u₁ = 2  →  u = (0.2, 0.6).
+    let (m, q) = ([2.0, 1.0, 1.0, 3.0], [-1.0, -2.0]);
+    let mut solver = LcpSolver::new(2, LcpSettings::default());
+    let sol = solver.solve(&MlcpProblem { n_free: 2, n: 2, m: &m, q: &q }).unwrap();
+    assert!((sol.z[0] - 0.2).abs() < 1e-12 && (sol.z[1] - 0.6).abs() < 1e-12, "{:?}", sol.z);
+    let singular = [1.0, 2.0, 2.0, 4.0];
+    let err = solver.solve(&MlcpProblem { n_free: 2, n: 2, m: &singular, q: &q }).unwrap_err();
+    assert_eq!(err, LcpFailure::SingularEqualities { n_free: 2 });
+}
