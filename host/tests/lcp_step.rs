@@ -28,26 +28,91 @@ fn every_probe_only_step_is_solved_and_verified() {
     println!("2000 probe-only steps solved, at most {max_pivots} pivots");
 }
 
+/// Whether some peg motion `Δq` keeps every planar contact's gap row `≥ 0` (rows 3..3+nc
+/// of `M`, columns `Δq`): a 3-variable LP, decided by enumerating the vertices of the
+/// feasible set cut by a large box. If not, the step is geometrically jammed: no LCP
+/// solution can exist, whatever the forces.
+fn kinematically_feasible(step: &generate::StepLcp, contacts: usize) -> bool {
+    let n = step.n;
+    let mut rows: Vec<([f64; 3], f64)> = (3..3 + contacts)
+        .map(|i| ([step.m[i * n], step.m[i * n + 1], step.m[i * n + 2]], -step.q[i]))
+        .collect();
+    for k in 0..3 {
+        for sign in [1.0, -1.0] {
+            let mut a = [0.0; 3];
+            a[k] = sign;
+            rows.push((a, -1e4));
+        }
+    }
+    let det = |a: [[f64; 3]; 3]| {
+        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    };
+    let m = rows.len();
+    for i in 0..m {
+        for j in i + 1..m {
+            for k in j + 1..m {
+                let a = [rows[i].0, rows[j].0, rows[k].0];
+                let d = det(a);
+                if d.abs() < 1e-12 {
+                    continue;
+                }
+                let b = [rows[i].1, rows[j].1, rows[k].1];
+                let x: [f64; 3] = std::array::from_fn(|c| {
+                    let mut ac = a;
+                    (0..3).for_each(|r| ac[r][c] = b[r]);
+                    det(ac) / d
+                });
+                if rows.iter().all(|(r, rb)| r[0] * x[0] + r[1] * x[1] + r[2] * x[2] >= rb - 1e-9) {
+                    return true;
+                }
+            }
+        }
+    }
+    false
+}
+
 #[test]
-fn steps_with_fixtures_verify_or_fail_honestly() {
+fn steps_with_fixtures_verify_or_fail_only_when_jammed() {
+    // With fixture contacts a step can jam. Every answer must verify; every failure must be a
+    // geometric jam (no motion keeps all gaps open: proven by the LP above) or a friction jam
+    // (the same step with frictionless planar contacts is solved); and no step that the LP
+    // proves jammed may be reported solved.
     let mut solver = LcpSolver::new(8, LcpSettings::default());
     for fixtures in 1..=5 {
-        let (mut solved, mut failed) = (0, 0);
+        let (mut solved, mut geometric, mut friction) = (0, 0, 0);
         for seed in 0..400u64 {
+            let at = format!("fixtures {fixtures} seed {seed}");
             let mut rng = ChaCha8Rng::seed_from_u64(10_000 * fixtures as u64 + seed);
             let step = generate::random_step(&mut rng, fixtures);
+            let feasible = kinematically_feasible(&step, 1 + fixtures);
             match solver.solve(&step.problem()) {
                 Ok(sol) => {
                     let r = residual(3, &step.m, &step.q, sol.z);
-                    assert!(r < 1e-9, "fixtures {fixtures} seed {seed}: residual {r:e}");
+                    assert!(r < 1e-9 && feasible, "{at}: residual {r:e}, feasible {feasible}");
                     solved += 1;
                 }
-                Err(LcpFailure::SecondaryRay { .. } | LcpFailure::PivotLimit { .. }) => failed += 1,
-                Err(e) => panic!("fixtures {fixtures} seed {seed}: unexpected failure {e}"),
+                Err(LcpFailure::SecondaryRay { .. } | LcpFailure::PivotLimit { .. })
+                    if !feasible =>
+                {
+                    geometric += 1
+                }
+                Err(LcpFailure::SecondaryRay { .. } | LcpFailure::PivotLimit { .. }) => {
+                    // Planar contacts' μ sit in their σ rows at the λ_n columns.
+                    let (nc, n) = (1 + fixtures, step.n);
+                    let mut frictionless = step.clone();
+                    let o_s = 3 + 3 * nc + 24;
+                    (0..nc).for_each(|c| frictionless.m[(o_s + c) * n + 3 + c] = 0.0);
+                    let sol = solver.solve(&frictionless.problem());
+                    assert!(sol.is_ok(), "{at}: not jammed geometrically, not by friction");
+                    friction += 1;
+                }
+                Err(e) => panic!("{at}: unexpected failure {e}"),
             }
         }
         println!(
-            "{fixtures} fixtures: {solved} solved, {failed} ended on a ray (jammed or unsolved)"
+            "{fixtures} fixtures: {solved} solved, {geometric} geometric jams, {friction} friction jams"
         );
         assert!(solved > 0, "fixtures {fixtures}: nothing solved");
     }
