@@ -1,6 +1,6 @@
 //! Criterion benchmarks of the complementarity solver: the simulator's 31-variable step LCPs
 //! (3 free + 31 complementarity, 50 seeded problems, one solve per iteration, cycling), steps
-//! with fixture contacts, and files of the Siconos suite.
+//! with fixture contacts, warm-started next steps, and files of the Siconos suite.
 //!
 //! Run: `cargo bench -p mesopush-host --bench lcp`.
 
@@ -33,6 +33,30 @@ fn bench_steps(c: &mut Criterion) {
     }
 }
 
+/// Warm start as the simulator would use it: the next step (probe pushed 3 % further) with
+/// the previous step's active set as the guess.
+fn bench_warm(c: &mut Criterion) {
+    let problems = steps(0, 50);
+    let mut solver = LcpSolver::new(34, LcpSettings::default());
+    let cases: Vec<(generate::StepLcp, Vec<bool>)> = problems
+        .iter()
+        .filter_map(|p| {
+            let active = solver.solve(&p.problem()).ok()?.active.to_vec();
+            let mut next = p.clone();
+            next.q[3] *= 1.03;
+            Some((next, active))
+        })
+        .collect();
+    let mut k = 0;
+    c.bench_function("step_probe_only_n34_warm_next_step", |b| {
+        b.iter(|| {
+            let (p, active) = &cases[k % cases.len()];
+            k += 1;
+            black_box(solver.solve_warm(&p.problem(), active).map(|s| s.pivots).ok())
+        })
+    });
+}
+
 fn bench_suite(c: &mut Criterion) {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/lcp-suite/lcp");
     for file in ["lcp_tobenna.dat", "lcp_mmc.dat", "lcp_CPS_3.dat"] {
@@ -47,5 +71,5 @@ fn bench_suite(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_steps, bench_suite);
+criterion_group!(benches, bench_steps, bench_warm, bench_suite);
 criterion_main!(benches);

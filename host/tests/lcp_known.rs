@@ -42,19 +42,29 @@ fn murty_takes_exactly_two_to_the_n_pivots() {
 }
 
 #[test]
-fn pivot_limit_is_reported_then_enumeration_rescues_small_problems() {
+fn pivot_limit_is_reported_and_each_fallback_rescues_on_its_own() {
     let (m, q) = murty(10);
-    let strict =
-        LcpSettings { max_pivots: 100, enumerate_max_n: 0, retries: 0, ..Default::default() };
-    let mut solver = LcpSolver::new(10, strict);
+    let lemke_only = LcpSettings {
+        max_pivots: 100,
+        retries: 0,
+        enumerate_max_n: 0,
+        newton_iterations: 0,
+        ..Default::default()
+    };
+    let mut solver = LcpSolver::new(10, lemke_only);
     match solver.solve(&lcp(&m, &q)) {
         Err(LcpFailure::PivotLimit { pivots, n }) => assert_eq!((pivots, n), (100, 10)),
         other => panic!("expected PivotLimit, got {other:?}"),
     }
-    solver.set_settings(LcpSettings { max_pivots: 100, retries: 0, ..Default::default() });
-    let sol = solver.solve(&lcp(&m, &q)).expect("enumeration finds Murty's solution");
-    assert_eq!(sol.method, SolveMethod::Enumeration);
-    assert_eq!(sol.z[9], 1024.0);
+    for (settings, method) in [
+        (LcpSettings { enumerate_max_n: 16, ..lemke_only }, SolveMethod::Enumeration),
+        (LcpSettings { newton_iterations: 100, ..lemke_only }, SolveMethod::Newton),
+    ] {
+        solver.set_settings(settings);
+        let sol = solver.solve(&lcp(&m, &q)).unwrap_or_else(|e| panic!("{method:?}: {e}"));
+        assert_eq!(sol.method, method);
+        assert_eq!(sol.z[9], 1024.0, "{method:?}");
+    }
 }
 
 #[test]
@@ -184,6 +194,13 @@ fn bad_input_is_an_error_not_a_panic() {
             other => panic!("expected BadInput({want}), got {other:?}"),
         }
     }
+    // Non-finite values anywhere, including the tail the solver's lane-wise check ends on.
+    let mut m = vec![1.0; 9];
+    m[8] = f64::INFINITY;
+    let err = solver.solve(&lcp(&m, &[0.0; 3])).unwrap_err();
+    assert!(matches!(&err, LcpFailure::BadInput(msg) if msg.contains("M[2][2]")), "{err}");
+    let err = solver.solve(&lcp(&[1.0; 9], &[0.0, 0.0, f64::NAN])).unwrap_err();
+    assert!(matches!(&err, LcpFailure::BadInput(msg) if msg.contains("q[2]")), "{err}");
     solver.set_settings(LcpSettings { tol: f64::NAN, ..Default::default() });
     assert!(matches!(solver.solve(&lcp(&[1.0], &[1.0])), Err(LcpFailure::BadInput(_))));
 }
@@ -200,4 +217,16 @@ fn solver_grows_beyond_its_capacity_and_repeats_bit_identically() {
     assert_eq!(first, again);
     let empty = solver.solve(&lcp(&[], &[])).unwrap();
     assert!(empty.z.is_empty());
+}
+
+#[test]
+fn only_free_variables_is_a_linear_solve() {
+    // 2u₀ + u₁ = 1, u₀ + 3u₁ = 2  →  u = (0.2, 0.6).
+    let (m, q) = ([2.0, 1.0, 1.0, 3.0], [-1.0, -2.0]);
+    let mut solver = LcpSolver::new(2, LcpSettings::default());
+    let sol = solver.solve(&MlcpProblem { n_free: 2, n: 2, m: &m, q: &q }).unwrap();
+    assert!((sol.z[0] - 0.2).abs() < 1e-12 && (sol.z[1] - 0.6).abs() < 1e-12, "{:?}", sol.z);
+    let singular = [1.0, 2.0, 2.0, 4.0];
+    let err = solver.solve(&MlcpProblem { n_free: 2, n: 2, m: &singular, q: &q }).unwrap_err();
+    assert_eq!(err, LcpFailure::SingularEqualities { n_free: 2 });
 }

@@ -69,3 +69,17 @@ fn tobenna_lexicographic_ties_ignore_rounding_noise() {
     assert_eq!(sol.pivots, 127);
     assert!(lcp_common::residual(0, &lcp.m, &lcp.q, sol.z) < 1e-12);
 }
+
+/// Without enumeration, the Newton fallback must still rescue the bimatrix game on which
+/// Lemke ends on a secondary ray, and must not invent an answer for the one without.
+#[test]
+fn newton_fallback_solves_cps_3_and_refuses_pang_perturbed() {
+    let settings = LcpSettings { enumerate_max_n: 0, ..Default::default() };
+    let mut solver = LcpSolver::new(4, settings);
+    let lcp = siconos::read(&suite_dir().join("lcp_CPS_3.dat")).unwrap();
+    let sol = solver.solve(&lcp.problem()).unwrap();
+    assert_eq!(sol.method, mesopush_host::lcp::SolveMethod::Newton);
+    assert!(lcp_common::residual(0, &lcp.m, &lcp.q, sol.z) < 1e-12);
+    let lcp = siconos::read(&suite_dir().join("lcp_Pang_isolated_sol_perturbed.dat")).unwrap();
+    assert!(matches!(solver.solve(&lcp.problem()), Err(LcpFailure::SecondaryRay { .. })));
+}

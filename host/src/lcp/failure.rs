@@ -14,8 +14,8 @@ pub enum LcpFailure {
         /// Number of free variables.
         n_free: usize,
     },
-    /// Lemke ended on a secondary ray (also after the retries) and the problem is too large for
-    /// the enumeration fallback.
+    /// Lemke ended on a secondary ray (also after the retries), the problem is too large for
+    /// the enumeration fallback and the Newton fallback found no verified answer.
     #[error("Lemke ended on a secondary ray after {pivots} pivots; no fallback for n = {n}")]
     SecondaryRay {
         /// Pivots spent (all attempts).
@@ -23,7 +23,8 @@ pub enum LcpFailure {
         /// Number of complementarity variables.
         n: usize,
     },
-    /// Lemke reached `max_pivots` and the problem is too large for the enumeration fallback.
+    /// Lemke reached `max_pivots`, the problem is too large for the enumeration fallback and
+    /// the Newton fallback found no verified answer.
     #[error("pivot limit reached after {pivots} pivots; no fallback for n = {n}")]
     PivotLimit {
         /// Pivots spent (all attempts).
@@ -52,6 +53,24 @@ pub enum LcpFailure {
 }
 
 impl LcpFailure {
+    /// Lemke pivots spent before giving up, when the failure came from pivoting.
+    pub fn pivots(&self) -> Option<usize> {
+        match self {
+            LcpFailure::SecondaryRay { pivots, .. }
+            | LcpFailure::PivotLimit { pivots, .. }
+            | LcpFailure::NoSolutionFound { pivots, .. } => Some(*pivots),
+            _ => None,
+        }
+    }
+
+    /// The best residual reached, for [`LcpFailure::VerificationFailed`].
+    pub fn residual(&self) -> Option<f64> {
+        match self {
+            LcpFailure::VerificationFailed { residual, .. } => Some(*residual),
+            _ => None,
+        }
+    }
+
     /// A short snake_case name for status fields (`--json` output, logs).
     pub fn status_name(&self) -> &'static str {
         match self {

@@ -10,6 +10,8 @@
 
 use super::MlcpProblem;
 
+mod free_block;
+
 /// How a Lemke run ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum LemkeEnd {
@@ -45,12 +47,13 @@ pub(crate) struct Tableau {
     is_basic: Vec<bool>,
     slot: Vec<usize>,
     free_row: Vec<bool>,
-    comp_rows: Vec<usize>,
+    comp_mask: Vec<f64>,
     acol: Vec<f64>,
     width: usize,
+    col_max: f64,
+    b_max: f64,
     lex: Vec<usize>,
     cand: Vec<usize>,
-    nz: Vec<usize>,
     pivot_tol: f64,
 }
 
@@ -73,14 +76,14 @@ impl Tableau {
         self.slot.resize(2 * cap + 1, 0);
         self.free_row.resize(cap, false);
         self.acol.resize(cap, 0.0);
-        self.comp_rows.reserve(cap.saturating_sub(self.comp_rows.capacity()));
+        self.comp_mask.resize(cap, 1.0);
         self.lex.reserve(cap.saturating_sub(self.lex.capacity()));
         self.cand.reserve(cap.saturating_sub(self.cand.capacity()));
-        self.nz.reserve((cap + 1).saturating_sub(self.nz.capacity()));
     }
 
-    /// Loads `w = q + M z + d z0` with every `w` basic.
-    pub(crate) fn load(&mut self, p: &MlcpProblem<'_>, pivot_tol: f64) {
+    /// Loads `w = q + M z + d z0` with every `w` basic. Returns `false` if `M` or `q` holds a
+    /// non-finite value (checked here, in the copy, rather than in a separate pass).
+    pub(crate) fn load(&mut self, p: &MlcpProblem<'_>, pivot_tol: f64) -> bool {
         let n = p.n;
         self.reserve(n);
         self.n = n;
@@ -103,49 +106,40 @@ impl Tableau {
             self.is_basic[n + j] = false;
             self.slot[n + j] = j;
         }
+        all_finite(p.m) && all_finite(p.q)
     }
 
     /// Exchanges the basic variable of row `r` with the nonbasic one of column `c`.
-    /// Step problems are sparse, so rows are updated only at the pivot row's nonzeros when
-    /// there are few of them.
-    fn pivot(&mut self, r: usize, c: usize) {
+    /// Also gathers column `next` (after the update, zero on free rows) into `acol` for the
+    /// next ratio test, when `next < width`.
+    fn pivot(&mut self, r: usize, c: usize, next: usize) {
         let (s, width) = (self.n + 1, self.width);
+        let gather = next < width;
         debug_assert!(c < width);
         let inv = 1.0 / self.t[r * s + c];
         let prow = &mut self.prow[..width];
-        self.nz.clear();
-        for (j, (dst, src)) in prow.iter_mut().zip(&self.t[r * s..r * s + width]).enumerate() {
+        for (dst, src) in prow.iter_mut().zip(&self.t[r * s..r * s + width]) {
             *dst = -src * inv;
-            if *src != 0.0 {
-                self.nz.push(j);
-            }
         }
         prow[c] = inv;
-        let sparse = self.nz.len() * 2 < width;
         let br = -self.b[r] * inv;
-        for (i, row) in self.t[..self.n * s].chunks_exact_mut(s).enumerate() {
-            let row = &mut row[..width];
-            if i == r {
-                row.copy_from_slice(prow);
-                continue;
-            }
+        let (t, b) = (&mut self.t[..self.n * s], &mut self.b[..self.n]);
+        for (i, row) in t.chunks_exact_mut(s).enumerate() {
             let f = row[c];
-            if f == 0.0 {
-                continue;
-            }
-            row[c] = 0.0;
-            if sparse {
-                for &j in &self.nz {
-                    row[j] += f * prow[j];
-                }
-            } else {
+            if i != r && f != 0.0 {
+                let row = &mut row[..width];
+                row[c] = 0.0;
                 for (x, pv) in row.iter_mut().zip(prow.iter()) {
                     *x += f * pv;
                 }
+                b[i] += f * br;
             }
-            self.b[i] += f * br;
         }
-        self.b[r] = br;
+        t[r * s..r * s + width].copy_from_slice(prow);
+        b[r] = br;
+        if gather {
+            self.gather_column(next);
+        }
         let (vin, vout) = (self.nonbasic[c], self.basic[r]);
         self.basic[r] = vin;
         self.nonbasic[c] = vout;
@@ -153,90 +147,6 @@ impl Tableau {
         self.slot[vin] = r;
         self.is_basic[vout] = false;
         self.slot[vout] = c;
-    }
-
-    /// Largest `|T[r][c]|` over rows whose basic variable passes `row_ok` and columns whose
-    /// nonbasic variable passes `col_ok`.
-    fn best_pivot(
-        &self,
-        row_ok: impl Fn(usize) -> bool,
-        col_ok: impl Fn(usize) -> bool,
-    ) -> Option<(usize, usize, f64)> {
-        let s = self.n + 1;
-        let mut best: Option<(usize, usize, f64)> = None;
-        for r in (0..self.n).filter(|&r| row_ok(self.basic[r])) {
-            for c in (0..self.n).filter(|&c| col_ok(self.nonbasic[c])) {
-                let a = self.t[r * s + c].abs();
-                if best.is_none_or(|(_, _, m)| a > m) {
-                    best = Some((r, c, a));
-                }
-            }
-        }
-        best
-    }
-
-    /// Block-pivots the free variables into the basis and the equality slacks out, keeping
-    /// one variable of every complementary pair basic. Returns the pivots spent, or `None`
-    /// when the free block is singular.
-    pub(crate) fn make_free_basic(&mut self) -> Option<usize> {
-        let (n, nf) = (self.n, self.nf);
-        let scale =
-            self.t.chunks_exact(n + 1).take(n).flatten().fold(0.0f64, |a, v| a.max(v.abs()));
-        let tiny = self.pivot_tol * scale.max(f64::MIN_POSITIVE);
-        let mut pivots = 0;
-        // A: every equality slack w_i (i < nf) leaves, for any z.
-        for _ in 0..nf {
-            let (r, c, a) = self.best_pivot(|v| v < nf, |v| v >= n && v < 2 * n)?;
-            if a <= tiny {
-                return None;
-            }
-            self.pivot(r, c);
-            pivots += 1;
-        }
-        // B: free z still nonbasic enter where both of a pair are basic.
-        loop {
-            let both = |v: usize| v >= nf && v < n && self.is_basic[v + n];
-            let Some((r, c, a)) = self.best_pivot(both, |v| v >= n && v < n + nf) else {
-                break;
-            };
-            if a <= tiny {
-                return None;
-            }
-            self.pivot(r, c);
-            pivots += 1;
-        }
-        if (n..n + nf).any(|v| !self.is_basic[v]) {
-            return None;
-        }
-        self.comp_rows.clear();
-        for r in 0..n {
-            let v = self.basic[r];
-            self.free_row[r] = v >= n && v < n + nf;
-            if !self.free_row[r] {
-                self.comp_rows.push(r);
-            }
-        }
-        // The equality slacks stay nonbasic at zero for good: park their columns at the end
-        // and stop updating them.
-        for k in 0..nf {
-            let target = n - k;
-            if self.slot[k] != target {
-                self.swap_columns(self.slot[k], target);
-            }
-        }
-        self.width = n + 1 - nf;
-        Some(pivots)
-    }
-
-    /// Swaps two nonbasic columns (values and labels).
-    fn swap_columns(&mut self, a: usize, b: usize) {
-        let s = self.n + 1;
-        for row in self.t[..self.n * s].chunks_exact_mut(s) {
-            row.swap(a, b);
-        }
-        self.nonbasic.swap(a, b);
-        self.slot[self.nonbasic[a]] = a;
-        self.slot[self.nonbasic[b]] = b;
     }
 
     /// Runs lexicographic Lemke from the current (complementary) basis. Returns how it ended
@@ -248,10 +158,14 @@ impl Tableau {
         let mut most_neg: Option<usize> = None;
         let mut k = 0;
         for r in 0..n {
-            self.t[r * s + z0_col] = if self.free_row[r] { 0.0 } else { cover_entry(cover, k) };
             if self.free_row[r] {
+                self.t[r * s + z0_col] = 0.0;
                 continue;
             }
+            self.t[r * s + z0_col] = match cover {
+                Cover::Ones => 1.0,
+                Cover::Spread(attempt) => spread_entry(attempt, k),
+            };
             k += 1;
             self.lex.push(self.basic[r]);
             let ratio = self.b[r] / self.t[r * s + z0_col];
@@ -270,13 +184,19 @@ impl Tableau {
                 return (LemkeEnd::Limit, pivots);
             }
             let leaving = self.basic[r];
-            self.pivot(r, c);
+            // The next entering variable is the complement of the one leaving now; its column
+            // does not move in this pivot, so the pivot can gather it.
+            let next = match leaving {
+                v if v == 2 * n => usize::MAX,
+                v if v < n => self.slot[v + n],
+                v => self.slot[v - n],
+            };
+            self.pivot(r, c, next);
             pivots += 1;
             if leaving == 2 * n {
                 return (LemkeEnd::Solved, pivots);
             }
-            let entering = if leaving < n { leaving + n } else { leaving - n };
-            c = self.slot[entering];
+            c = next;
             match self.leaving_row(c) {
                 Some(row) => r = row,
                 None => return (LemkeEnd::Ray, pivots),
@@ -284,40 +204,52 @@ impl Tableau {
         }
     }
 
-    /// The lexicographic minimum-ratio row for entering column `c`, `z0` first among ties.
-    fn leaving_row(&mut self, c: usize) -> Option<usize> {
-        let s = self.n + 1;
+    /// Copies `−T[·][c]` (zero on free rows) into `acol`, with the largest `|acol|` and the
+    /// largest `|b|` over the complementarity rows, for the next ratio test.
+    fn gather_column(&mut self, c: usize) {
+        let (n, s) = (self.n, self.n + 1);
         let (mut col_max, mut b_max) = (0.0f64, 0.0f64);
-        for (k, &i) in self.comp_rows.iter().enumerate() {
-            let a = -self.t[i * s + c];
-            self.acol[k] = a;
-            col_max = if a.abs() > col_max { a.abs() } else { col_max };
-            b_max = if self.b[i].abs() > b_max { self.b[i].abs() } else { b_max };
+        for i in 0..n {
+            let m = self.comp_mask[i];
+            let a = -self.t[i * s + c] * m;
+            self.acol[i] = a;
+            let (a, b) = (a.abs(), self.b[i].abs() * m);
+            col_max = if a > col_max { a } else { col_max };
+            b_max = if b > b_max { b } else { b_max };
         }
-        let eps = self.pivot_tol * col_max;
-        // Minimum ratio b/a over a > eps, compared by cross-multiplication (no division).
-        let (mut best_b, mut best_a) = (f64::INFINITY, 1.0);
-        for (k, &i) in self.comp_rows.iter().enumerate() {
-            let (a, b) = (self.acol[k], self.b[i].max(0.0));
-            if a > eps && b * best_a < best_b * a {
-                (best_b, best_a) = (b, a);
-            }
-        }
-        if best_b == f64::INFINITY {
-            return None;
-        }
-        let theta = best_b / best_a;
-        // Rows whose ratio ties with `theta` up to rounding noise in `b`.
-        let tol_b = 1e-11 * b_max;
+        (self.col_max, self.b_max) = (col_max, b_max);
+    }
+
+    /// The lexicographic minimum-ratio row for entering column `c` (gathered into `acol` by
+    /// [`Self::gather_column`]), `z0` first among ties. One pass keeps every row that ties
+    /// with the best ratio so far (up to rounding noise in `b`); a short filter then keeps
+    /// those that tie with the final one.
+    fn leaving_row(&mut self, c: usize) -> Option<usize> {
+        let n = self.n;
+        let eps = self.pivot_tol * self.col_max;
+        let tol_b = 1e-11 * self.b_max;
+        let (mut best_b, mut best_a, mut theta) = (f64::INFINITY, 1.0, f64::INFINITY);
         self.cand.clear();
-        for (k, &i) in self.comp_rows.iter().enumerate() {
-            let a = self.acol[k];
-            if a > eps && self.b[i].max(0.0) - theta * a <= tol_b {
+        for (i, (&a, &b)) in self.acol[..n].iter().zip(&self.b[..n]).enumerate() {
+            if a <= eps {
+                continue;
+            }
+            let b = b.max(0.0);
+            if b * best_a < best_b * a {
+                (best_b, best_a) = (b, a);
+                theta = b / a;
+            }
+            if b - theta * a <= tol_b {
                 self.cand.push(i);
             }
         }
+        if theta == f64::INFINITY {
+            return None;
+        }
+        let (acol, b) = (&self.acol, &self.b);
+        self.cand.retain(|&i| b[i].max(0.0) - theta * acol[i] <= tol_b);
         if self.cand.len() > 1 {
-            if let Some(&i) = self.cand.iter().find(|&&i| self.basic[i] == 2 * self.n) {
+            if let Some(&i) = self.cand.iter().find(|&&i| self.basic[i] == 2 * n) {
                 return Some(i);
             }
             self.lex_break(c);
@@ -383,18 +315,32 @@ impl Tableau {
     }
 }
 
-/// Entry `k` of the covering vector.
-fn cover_entry(cover: Cover, k: usize) -> f64 {
-    match cover {
-        Cover::Ones => 1.0,
-        Cover::Spread(attempt) => {
-            // splitmix64 of (attempt, k): deterministic, platform-independent.
-            let mut x = (u64::from(attempt) << 32 | k as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
-            x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            x ^= x >> 31;
-            let u = (x >> 11) as f64 / (1u64 << 53) as f64;
-            (0.05f64.ln() + u * 400f64.ln()).exp()
+/// `v * 0` is NaN exactly when `v` is not finite; four independent lanes let the compiler
+/// vectorise the check (a single running sum could not be reordered).
+pub(crate) fn all_finite(values: &[f64]) -> bool {
+    let mut lanes = [0.0f64; 4];
+    let chunks = values.chunks_exact(4);
+    let tail = chunks.remainder();
+    for ch in chunks {
+        for (l, v) in lanes.iter_mut().zip(ch) {
+            *l += v * 0.0;
         }
     }
+    for (l, v) in lanes.iter_mut().zip(tail) {
+        *l += v * 0.0;
+    }
+    lanes == [0.0; 4]
+}
+
+/// Entry `k` of retry `attempt`'s covering vector. Kept out of line so the compiler does not
+/// evaluate it speculatively for the all-ones vector.
+#[inline(never)]
+fn spread_entry(attempt: u32, k: usize) -> f64 {
+    // splitmix64 of (attempt, k): deterministic, platform-independent.
+    let mut x = (u64::from(attempt) << 32 | k as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^= x >> 31;
+    let u = (x >> 11) as f64 / (1u64 << 53) as f64;
+    (0.05f64.ln() + u * 400f64.ln()).exp()
 }

@@ -25,6 +25,23 @@ impl MlcpProblem<'_> {
 
     /// Checks sizes and finiteness; the message names the first problem found.
     pub fn validate(&self) -> Result<(), LcpFailure> {
+        self.validate_sizes()?;
+        if let Some(k) = self.m.iter().position(|v| !v.is_finite()) {
+            return Err(LcpFailure::BadInput(format!(
+                "M[{}][{}] = {} is not finite",
+                k / self.n,
+                k % self.n,
+                self.m[k]
+            )));
+        }
+        if let Some(i) = self.q.iter().position(|v| !v.is_finite()) {
+            return Err(LcpFailure::BadInput(format!("q[{i}] = {} is not finite", self.q[i])));
+        }
+        Ok(())
+    }
+
+    /// Checks the sizes only (`O(1)`); the solver checks finiteness while loading.
+    pub fn validate_sizes(&self) -> Result<(), LcpFailure> {
         if self.n_free > self.n {
             return Err(LcpFailure::BadInput(format!(
                 "n_free = {} exceeds n = {}",
@@ -45,17 +62,6 @@ impl MlcpProblem<'_> {
                 self.n
             )));
         }
-        if let Some(k) = self.m.iter().position(|v| !v.is_finite()) {
-            return Err(LcpFailure::BadInput(format!(
-                "M[{}][{}] = {} is not finite",
-                k / self.n,
-                k % self.n,
-                self.m[k]
-            )));
-        }
-        if let Some(i) = self.q.iter().position(|v| !v.is_finite()) {
-            return Err(LcpFailure::BadInput(format!("q[{i}] = {} is not finite", self.q[i])));
-        }
         Ok(())
     }
 }
@@ -75,6 +81,9 @@ pub struct LcpSettings {
     /// Largest number of complementarity variables for which the enumeration fallback runs
     /// (`2ⁿ` bases); `0` disables it. Default 16.
     pub enumerate_max_n: usize,
+    /// Iterations of the Fischer–Burmeister Newton fallback, per start (two starts), for
+    /// problems too large to enumerate; `0` disables it. Default 100.
+    pub newton_iterations: usize,
     /// Extra Lemke attempts, each with another (deterministic) covering vector, when Lemke
     /// ends on a secondary ray, at the pivot limit or with an answer that fails verification.
     /// Default 8.
@@ -89,6 +98,7 @@ impl Default for LcpSettings {
             pivot_tol: 1e-11,
             enumerate_max_n: 16,
             retries: 8,
+            newton_iterations: 100,
         }
     }
 }

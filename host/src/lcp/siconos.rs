@@ -1,9 +1,15 @@
-//! Reader for the dense Siconos LCP file format (`.dat`) of the peer test suite.
+//! Reader for the dense Siconos LCP and MLCP file formats (`.dat`) of the peer test suite.
 //!
-//! Whitespace-separated: `n`, the storage type (`0` dense; `1` is Siconos's sparse-block
+//! LCP: whitespace-separated `n`, the storage type (`0` dense; `1` is Siconos's sparse-block
 //! storage, which we refuse by name), `n n` twice, the `n × n` values of `M` in column-major
 //! order, then the `n` values of `q`. Anything after `q` (comments, a stored solution) is
 //! ignored, as Siconos does.
+//!
+//! MLCP (`mixedLinearComplementarity_newFromFile`): two flags (M given; A–D given), `n`
+//! (equalities) and `m` (complementarity rows), the row blocks (`blocksRows` up to `n + m`,
+//! then one is-complementarity flag per block), then `M` as a dense NumericsMatrix
+//! (storage `0`, sizes, sizes again, values column-major) and `q`. The A–D copy that follows
+//! is ignored. We read files whose equality rows come first and whose `M` is square.
 
 use std::path::Path;
 
@@ -36,35 +42,95 @@ pub fn read(path: &Path) -> Result<SiconosLcp, Error> {
     parse(&text).map_err(|message| Error::Parse { path: path.to_path_buf(), message })
 }
 
-/// Parses the text of a file; the error message names what is wrong.
+/// Parses the text of an LCP file; the error message names what is wrong.
 pub fn parse(text: &str) -> Result<SiconosLcp, String> {
-    let mut tokens = text.split_whitespace();
-    let mut int = |what: &str| -> Result<usize, String> {
-        let t = tokens.next().ok_or_else(|| format!("file ends before {what}"))?;
-        t.parse::<usize>()
-            .map_err(|_| format!("{what}: expected a non-negative integer, found {t:?}"))
-    };
-    let n = int("n (the problem size)")?;
+    let mut tok = Tokens(text.split_whitespace());
+    let n = tok.int("n (the problem size)")?;
     if n == 0 || n > MAX_N {
         return Err(format!("n = {n} is out of range (1..={MAX_N})"));
     }
-    let storage = int("the storage type")?;
-    if storage != 0 {
-        return Err(format!(
-            "unsupported storage type {storage} (1 is Siconos sparse-block storage); \
-             only dense storage (0) is supported"
-        ));
+    let (m, q) = tok.dense_matrix_and_q(n)?;
+    Ok(SiconosLcp { n, m, q })
+}
+
+/// A mixed LCP read from a file: the first `n_free` rows are equalities, `M` row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SiconosMlcp {
+    /// Number of equality rows (free variables), first.
+    pub n_free: usize,
+    /// Total size.
+    pub n: usize,
+    /// `M`, `n × n`, row-major.
+    pub m: Vec<f64>,
+    /// `q`, length `n`.
+    pub q: Vec<f64>,
+}
+
+impl SiconosMlcp {
+    /// The problem view for [`crate::lcp::LcpSolver::solve`].
+    pub fn problem(&self) -> crate::lcp::MlcpProblem<'_> {
+        crate::lcp::MlcpProblem { n_free: self.n_free, n: self.n, m: &self.m, q: &self.q }
     }
-    for what in ["size0", "size1", "size0 (repeated)", "size1 (repeated)"] {
-        let v = int(what)?;
-        if v != n {
-            return Err(format!("{what} = {v} does not match n = {n}"));
+}
+
+/// Reads and parses an MLCP file.
+pub fn read_mlcp(path: &Path) -> Result<SiconosMlcp, Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    parse_mlcp(&text).map_err(|message| Error::Parse { path: path.to_path_buf(), message })
+}
+
+/// Parses the text of an MLCP file; the error message names what is wrong.
+pub fn parse_mlcp(text: &str) -> Result<SiconosMlcp, String> {
+    let mut tok = Tokens(text.split_whitespace());
+    let has_m = tok.int("the first storage flag (M given)")?;
+    let _has_abcd = tok.int("the second storage flag (A, B, C, D given)")?;
+    let n_free = tok.int("n (equality rows)")?;
+    let n_comp = tok.int("m (complementarity rows)")?;
+    let n = n_free + n_comp;
+    if n == 0 || n > MAX_N {
+        return Err(format!("n + m = {n} is out of range (1..={MAX_N})"));
+    }
+    if has_m != 1 {
+        return Err("files without the M matrix (first flag 0) are not supported".into());
+    }
+    let mut rows = vec![tok.int("blocksRows[0]")?];
+    while *rows.last().unwrap_or(&n) < n {
+        if rows.len() > n {
+            return Err(format!("blocksRows never reaches n + m = {n}"));
+        }
+        rows.push(tok.int("blocksRows")?);
+    }
+    for k in 0..rows.len() - 1 {
+        let comp = tok.int("blocksIsComp")? != 0;
+        if comp != (rows[k] >= n_free) || rows[k] > rows[k + 1] {
+            return Err(format!(
+                "block {k} (rows {}..{}) is {}: only equality rows first, then \
+                 complementarity rows, are supported",
+                rows[k],
+                rows[k + 1],
+                if comp { "complementarity" } else { "equality" }
+            ));
         }
     }
-    let mut values = |count: usize, what: &str| -> Result<Vec<f64>, String> {
+    let (m, q) = tok.dense_matrix_and_q(n)?;
+    Ok(SiconosMlcp { n_free, n, m, q })
+}
+
+/// The whitespace-separated tokens of a file, read with messages that name what was expected.
+struct Tokens<'a>(std::str::SplitWhitespace<'a>);
+
+impl Tokens<'_> {
+    fn int(&mut self, what: &str) -> Result<usize, String> {
+        let t = self.0.next().ok_or_else(|| format!("file ends before {what}"))?;
+        t.parse::<usize>()
+            .map_err(|_| format!("{what}: expected a non-negative integer, found {t:?}"))
+    }
+
+    fn values(&mut self, count: usize, what: &str) -> Result<Vec<f64>, String> {
         let mut out = Vec::with_capacity(count);
         for k in 0..count {
-            let t = tokens
+            let t = self
+                .0
                 .next()
                 .ok_or_else(|| format!("file ends after {k} of the {count} values of {what}"))?;
             let v: f64 = t
@@ -76,16 +142,34 @@ pub fn parse(text: &str) -> Result<SiconosLcp, String> {
             out.push(v);
         }
         Ok(out)
-    };
-    let cols = values(n * n, "M (column-major)")?;
-    let q = values(n, "q")?;
-    let mut m = vec![0.0; n * n];
-    for j in 0..n {
-        for i in 0..n {
-            m[i * n + j] = cols[j * n + i];
-        }
     }
-    Ok(SiconosLcp { n, m, q })
+
+    /// A dense NumericsMatrix (storage type, sizes twice, column-major values) that must be
+    /// `n × n`, then `q`; returns `M` row-major.
+    fn dense_matrix_and_q(&mut self, n: usize) -> Result<(Vec<f64>, Vec<f64>), String> {
+        let storage = self.int("the storage type")?;
+        if storage != 0 {
+            return Err(format!(
+                "unsupported storage type {storage} (1 is Siconos sparse-block storage); \
+                 only dense storage (0) is supported"
+            ));
+        }
+        for what in ["size0", "size1", "size0 (repeated)", "size1 (repeated)"] {
+            let v = self.int(what)?;
+            if v != n {
+                return Err(format!("{what} = {v} does not match n = {n} (M must be square)"));
+            }
+        }
+        let cols = self.values(n * n, "M (column-major)")?;
+        let q = self.values(n, "q")?;
+        let mut m = vec![0.0; n * n];
+        for j in 0..n {
+            for i in 0..n {
+                m[i * n + j] = cols[j * n + i];
+            }
+        }
+        Ok((m, q))
+    }
 }
 
 #[cfg(test)]
@@ -97,6 +181,21 @@ mod tests {
         let p = parse("2 0 2 2 2 2\n1 3\n2 4\n-1 -2\nsome remark 5").unwrap();
         assert_eq!(p.m, vec![1.0, 2.0, 3.0, 4.0]);
         assert_eq!(p.q, vec![-1.0, -2.0]);
+    }
+
+    #[test]
+    fn reads_an_mlcp_with_equalities_first_and_refuses_other_layouts() {
+        let text = "1 1 1 2  0 1 3  0 1  0 3 3 3 3  1 0 0 2 1 0 0 1.5 1  -1 1 -3  9 9";
+        let p = super::parse_mlcp(text).unwrap();
+        assert_eq!((p.n_free, p.n), (1, 3));
+        assert_eq!(p.m, vec![1.0, 2.0, 0.0, 0.0, 1.0, 1.5, 0.0, 0.0, 1.0]);
+        assert_eq!(p.q, vec![-1.0, 1.0, -3.0]);
+        let e = super::parse_mlcp("1 1 1 2  0 1 3  1 0  0 3 3 3 3").unwrap_err();
+        assert!(e.contains("only equality rows first"), "{e}");
+        let e = super::parse_mlcp("1 1 1 1  0 1 2  0 1  0 3 2 3 2").unwrap_err();
+        assert!(e.contains("must be square"), "{e}");
+        let e = super::parse_mlcp("0 1 1 1").unwrap_err();
+        assert!(e.contains("without the M matrix"), "{e}");
     }
 
     #[test]

@@ -34,14 +34,8 @@ pub fn check(p: &MlcpProblem<'_>, z: &[f64], w: &mut [f64]) -> Residuals {
     let n = p.n;
     let mut s_w = 0.0f64;
     for (i, wi) in w.iter_mut().enumerate().take(n) {
-        let row = &p.m[i * n..(i + 1) * n];
-        let (mut acc, mut mag) = (p.q[i], 0.0);
-        for (mij, zj) in row.iter().zip(z) {
-            let t = mij * zj;
-            acc += t;
-            mag += t.abs();
-        }
-        *wi = acc;
+        let (acc, mag) = dot_and_magnitude(&p.m[i * n..(i + 1) * n], &z[..n]);
+        *wi = p.q[i] + acc;
         s_w = s_w.max(mag).max(p.q[i].abs());
     }
     let s_z = z[..n].iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -57,4 +51,23 @@ pub fn check(p: &MlcpProblem<'_>, z: &[f64], w: &mut [f64]) -> Residuals {
         }
     }
     r
+}
+
+/// `(Σ aⱼ bⱼ, Σ |aⱼ bⱼ|)` in four independent lanes, so the compiler can vectorise it.
+fn dot_and_magnitude(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let (mut acc, mut mag) = ([0.0f64; 4], [0.0f64; 4]);
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ta, tb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for l in 0..4 {
+            let t = x[l] * y[l];
+            acc[l] += t;
+            mag[l] += t.abs();
+        }
+    }
+    for (l, (x, y)) in ta.iter().zip(tb).enumerate() {
+        acc[l] += x * y;
+        mag[l] += (x * y).abs();
+    }
+    ((acc[0] + acc[1]) + (acc[2] + acc[3]), (mag[0] + mag[1]) + (mag[2] + mag[3]))
 }

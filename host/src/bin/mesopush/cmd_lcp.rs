@@ -1,4 +1,4 @@
-//! `mesopush lcp solve FILE`: solve an LCP from a dense Siconos `.dat` file with our solver
+//! `mesopush lcp solve FILE`: solve an (M)LCP from a dense Siconos `.dat` file with our solver
 //! and print the verified answer (or the named failure), optionally timing repeated solves.
 
 use std::path::PathBuf;
@@ -18,15 +18,42 @@ pub(crate) struct LcpArgs {
 
 #[derive(Debug, Subcommand)]
 enum LcpCommand {
-    /// Solve the LCP in a dense Siconos `.dat` file (Lemke, then fallbacks; every answer is
-    /// verified). Exit status: 0 solved, 2 no verified solution (status names why), 1 error.
+    /// Solve the LCP (or, with --mlcp, the mixed LCP) in a dense Siconos `.dat` file (Lemke,
+    /// then fallbacks; every answer is verified). Exit status: 0 solved, 2 no verified
+    /// solution (status names why), 1 error.
     Solve(SolveArgs),
+    /// Benchmark the solver on seeded random simulator step problems (paper Eq. 7–8; with the
+    /// probe alone, 3 free and 31 complementarity variables): per-problem median solve time,
+    /// then the median over problems; counts solved and failed problems.
+    Steps(StepsArgs),
+}
+
+#[derive(Debug, Args)]
+struct StepsArgs {
+    /// Number of random step problems.
+    #[arg(long, default_value_t = 50)]
+    count: u64,
+    /// Seed of the first problem (problem k uses seed + k).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Fixture contacts besides the probe (each adds 4 complementarity variables).
+    #[arg(long, default_value_t = 0)]
+    fixtures: usize,
+    /// Timed solves per problem.
+    #[arg(long, default_value_t = 200)]
+    runs: usize,
+    /// Print a JSON summary.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, Args)]
 struct SolveArgs {
     /// The problem file (Siconos dense format: n, 0, n n n n, M column-major, q).
     file: PathBuf,
+    /// The file is a Siconos MLCP (`*_mlcp.dat`: equality rows first, then complementarity).
+    #[arg(long)]
+    mlcp: bool,
     /// Print a JSON summary (status, z, pivots, residuals) instead of text.
     #[arg(long)]
     json: bool,
@@ -47,11 +74,17 @@ struct SolveArgs {
 pub(crate) fn run(args: LcpArgs) -> anyhow::Result<()> {
     match args.command {
         LcpCommand::Solve(a) => solve(a),
+        LcpCommand::Steps(a) => steps(a),
     }
 }
 
 fn solve(a: SolveArgs) -> anyhow::Result<()> {
-    let lcp = siconos::read(&a.file)?;
+    let lcp = if a.mlcp {
+        siconos::read_mlcp(&a.file)?
+    } else {
+        let l = siconos::read(&a.file)?;
+        siconos::SiconosMlcp { n_free: 0, n: l.n, m: l.m, q: l.q }
+    };
     let settings = LcpSettings {
         max_pivots: a.max_pivots,
         tol: a.tol,
@@ -69,13 +102,13 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
     let solved = outcome.is_ok();
     let mut summary = match &outcome {
         Ok(sol) => json!({
-            "file": file, "n": lcp.n, "status": "solved", "method": sol.method,
+            "file": file, "n": lcp.n, "n_free": lcp.n_free, "status": "solved", "method": sol.method,
             "z": sol.z, "pivots": sol.pivots, "polished": sol.polished,
             "residual": sol.residuals.max(), "residuals": sol.residuals,
         }),
         Err(f) => json!({
             "file": file, "n": lcp.n, "status": f.status_name(), "message": f.to_string(),
-            "z": null,
+            "z": null, "pivots": f.pivots(), "residual": f.residual(),
         }),
     };
     if let Some(median_us) = timing {
@@ -95,8 +128,51 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn steps(a: StepsArgs) -> anyhow::Result<()> {
+    use mesopush_host::lcp::{MlcpProblem, generate};
+    use rand::SeedableRng;
+    anyhow::ensure!(a.count > 0 && a.runs > 0, "--count and --runs must be at least 1");
+    let mut solver = LcpSolver::new(64, LcpSettings::default());
+    let (mut medians, mut failed, mut pivots) = (Vec::new(), 0, Vec::new());
+    for k in 0..a.count {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(a.seed + k);
+        let step = generate::random_step(&mut rng, a.fixtures);
+        let p = MlcpProblem { n_free: step.n_free, n: step.n, m: &step.m, q: &step.q };
+        match solver.solve(&p) {
+            Ok(sol) => pivots.push(sol.pivots as f64),
+            Err(_) => failed += 1,
+        }
+        let lcp = siconos::SiconosMlcp { n_free: step.n_free, n: step.n, m: step.m, q: step.q };
+        medians.push(time_solves(&mut solver, &lcp, a.runs));
+    }
+    medians.sort_by(f64::total_cmp);
+    let summary = json!({
+        "problems": a.count, "seed": a.seed, "fixtures": a.fixtures, "runs": a.runs,
+        "solved": a.count as usize - failed, "failed": failed,
+        "mean_pivots": pivots.iter().sum::<f64>() / pivots.len().max(1) as f64,
+        "solve_us_median": medians[medians.len() / 2],
+        "solve_us_max": medians[medians.len() - 1],
+    });
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&summary).context("encoding JSON")?);
+    } else {
+        println!(
+            "{} step problems ({} fixtures): {} solved, {} failed; median {:.2} µs per solve \
+             (slowest problem {:.2} µs), {:.1} pivots on average",
+            a.count,
+            a.fixtures,
+            summary["solved"],
+            failed,
+            summary["solve_us_median"].as_f64().unwrap_or(f64::NAN),
+            summary["solve_us_max"].as_f64().unwrap_or(f64::NAN),
+            summary["mean_pivots"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+    Ok(())
+}
+
 /// Solves `runs` times and returns the median wall time per solve in µs.
-fn time_solves(solver: &mut LcpSolver, lcp: &siconos::SiconosLcp, runs: usize) -> f64 {
+fn time_solves(solver: &mut LcpSolver, lcp: &siconos::SiconosMlcp, runs: usize) -> f64 {
     let p = lcp.problem();
     let mut times: Vec<f64> = (0..runs)
         .map(|_| {
