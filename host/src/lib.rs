@@ -7,5 +7,6 @@
 pub mod error;
 pub mod geom;
 pub mod units;
+pub mod vision;
 
 pub use error::Error;

@@ -1,6 +1,8 @@
 //! `mesopush`: the host command line. Thin over `mesopush_host`: each subcommand module parses
 //! its flags, calls the library and prints.
 
+mod cmd_render;
+
 use clap::{Parser, Subcommand};
 
 /// Design, execute and verify open-loop pushing plans for meso-scale assembly.
@@ -12,9 +14,14 @@ struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    /// Render a synthetic microscope sequence (PNG frames, frames.csv, truth.csv, bg.png).
+    Render(cmd_render::RenderArgs),
+}
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    match cli.command {}
+    match cli.command {
+        Command::Render(args) => cmd_render::run(&args),
+    }
 }

@@ -1,0 +1,17 @@
+//! Microscope vision (paper §IV): the only sensing the system has. A synthetic microscope
+//! renders frames of the fixture, peg and probe with ground truth; the tracker measures the
+//! peg's pose and the probe tip from frames by background subtraction, thresholding, probe
+//! removal by its geometry and an ellipse fit to the peg's second moments.
+
+pub mod calib;
+pub mod demo;
+pub mod needle;
+pub(crate) mod optics;
+pub(crate) mod raster;
+pub mod render;
+pub mod scene;
+
+pub use calib::Calibration;
+pub use needle::NeedleSettings;
+pub use render::{GroundTruth, RenderSettings, Rendered, Renderer, render};
+pub use scene::{DemoFixture, Scene, paper_peg};
