@@ -3,15 +3,27 @@
 //! peg's pose and the probe tip from frames by background subtraction, thresholding, probe
 //! removal by its geometry and an ellipse fit to the peg's second moments.
 
+pub mod assess;
+pub mod background;
 pub mod calib;
 pub mod demo;
+pub mod moments;
+pub mod morph;
 pub mod needle;
 pub(crate) mod optics;
+pub mod probe;
 pub(crate) mod raster;
 pub mod render;
 pub mod scene;
+pub mod threshold;
+pub mod track;
 
+pub use assess::{Flag, Measurement};
+pub use background::Background;
 pub use calib::Calibration;
 pub use needle::NeedleSettings;
+pub use probe::ProbeSettings;
 pub use render::{GroundTruth, RenderSettings, Rendered, Renderer, render};
 pub use scene::{DemoFixture, Scene, paper_peg};
+pub use threshold::Threshold;
+pub use track::{TrackSettings, Tracker};

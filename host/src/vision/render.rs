@@ -183,6 +183,13 @@ impl Renderer {
         &self.settings
     }
 
+    /// Changes the needle (e.g. its entry direction) without rebuilding the cached layers.
+    pub fn set_needle(&mut self, needle: NeedleSettings) -> Result<(), Error> {
+        needle.validate()?;
+        self.settings.needle = needle;
+        Ok(())
+    }
+
     fn set_walls(&mut self, walls: &[ConvexPolygon]) {
         let (w, h) = (self.base.width, self.base.height);
         self.base = Plane::filled(w, h, 1.0);

@@ -1,0 +1,245 @@
+//! Removal of the probe by its geometry (paper §IV): the needle is a thin structure entering
+//! from the frame edge, so it is what a morphological opening with a disc wider than the needle
+//! but much narrower than the peg takes away. The needle's far end is its tip, located to
+//! sub-pixel precision from the darkening mass near the end and the known tip diameter.
+
+use crate::geom::Vec2;
+use crate::vision::background::Background;
+use crate::vision::morph::{Component, Roi, chamfer, label_components};
+
+/// What the tracker knows about the probe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeSettings {
+    /// Half-width of the widest part of the needle in view, px: the opening radius. Must stay
+    /// well below the peg's half-width (default 20 px ≈ 105 µm).
+    pub max_half_width_px: f64,
+    /// Diameter of the probe's tip, µm (default 25).
+    pub tip_diameter_um: f64,
+}
+
+impl Default for ProbeSettings {
+    fn default() -> Self {
+        Self { max_half_width_px: 20.0, tip_diameter_um: 25.0 }
+    }
+}
+
+/// The binary mask split into probe and the rest.
+#[derive(Debug, Clone)]
+pub(crate) struct Separation {
+    /// Needle pixels.
+    pub(crate) needle: Vec<bool>,
+    /// Chamfer distance (thirds of a pixel) from each mask pixel to the nearest non-mask one.
+    pub(crate) depth: Vec<u16>,
+    /// Centre of the tip's rounded end, continuous pixel coordinates.
+    pub(crate) tip_px: Option<Vec2>,
+}
+
+/// Splits `mask` (`w × h`) into needle and rest, and locates the needle tip.
+pub(crate) fn separate_probe(
+    mask: &[bool],
+    darkening: &[f32],
+    bg: &Background,
+    settings: &ProbeSettings,
+    tip_radius_px: f64,
+) -> Separation {
+    let (w, h) = (bg.width(), bg.height());
+    let roi = Roi::full(w, h);
+    let depth = chamfer(roi, false, |x, y| !mask[y * w + x]);
+    let r3 = (3.0 * settings.max_half_width_px).round() as u16;
+    let to_core = chamfer(roi, false, |x, y| {
+        let d = depth[y * w + x];
+        d > r3 && d != u16::MAX
+    });
+    let thin: Vec<bool> =
+        (0..w * h).map(|k| mask[k] && to_core[k] > r3.saturating_add(1)).collect();
+    let (labels, comps) = label_components(&thin, w, h);
+    // Corner slivers of the peg left by the opening are at most (1 − π/4) r² in area.
+    let min_area = (0.5 * settings.max_half_width_px.powi(2)).max(12.0) as usize;
+    let on_border =
+        |c: &Component| c.bbox.x0 == 0 || c.bbox.y0 == 0 || c.bbox.x1 == w || c.bbox.y1 == h;
+    let needle_labels: Vec<u32> = comps
+        .iter()
+        .filter(|c| c.area >= min_area || (on_border(c) && c.area >= 12))
+        .map(|c| c.label)
+        .collect();
+    let mut needle: Vec<bool> =
+        labels.iter().map(|l| *l != 0 && needle_labels.contains(l)).collect();
+    let biggest = comps.iter().filter(|c| needle_labels.contains(&c.label)).max_by_key(|c| c.area);
+    let mut tip_px = None;
+    if let Some(c) = biggest {
+        let pixels: Vec<(usize, usize)> = (c.bbox.y0..c.bbox.y1)
+            .flat_map(|y| (c.bbox.x0..c.bbox.x1).map(move |x| (x, y)))
+            .filter(|&(x, y)| labels[y * w + x] == c.label)
+            .collect();
+        if let Some(shaft) = Shaft::find(&pixels, bg, tip_radius_px + 2.5) {
+            // What lies off the shaft is a corner sliver of the peg the tip touches: give it
+            // back, so the probe removal does not bite into the peg.
+            for &p in &pixels {
+                if !shaft.covers(&centre(p)) {
+                    needle[p.1 * w + p.0] = false;
+                }
+            }
+            let tip =
+                TipInput { pixels: &pixels, mask, needle: &needle, darkening, depth: &depth, bg };
+            tip_px = Some(refine_tip(&tip, &shaft, tip_radius_px));
+        }
+    }
+    Separation { needle, depth, tip_px }
+}
+
+struct TipInput<'a> {
+    pixels: &'a [(usize, usize)],
+    mask: &'a [bool],
+    needle: &'a [bool],
+    darkening: &'a [f32],
+    depth: &'a [u16],
+    bg: &'a Background,
+}
+
+fn centre(p: (usize, usize)) -> Vec2 {
+    Vec2::new(p.0 as f64 + 0.5, p.1 as f64 + 0.5)
+}
+
+/// The needle's shaft as a line: where it enters, its direction and its far end's pixel.
+#[derive(Debug, Clone, Copy)]
+struct Shaft {
+    /// A point on the shaft's centre line.
+    mean: Vec2,
+    /// Unit direction from the entry towards the tip.
+    u: Vec2,
+    /// Centre of the furthest shaft pixel.
+    far: Vec2,
+    /// Half-width at the tip plus a margin, px.
+    half_width_px: f64,
+}
+
+/// Half-width growth per pixel back from the tip allowed for (the taper, with margin).
+const TAPER_ALLOWANCE: f64 = 0.06;
+
+impl Shaft {
+    /// Entry at the frame edge or a wall (else the thicker end), axis from the pixels nearer
+    /// the entry (the far end may carry a corner sliver of a touched peg), tip the furthest
+    /// pixel on that axis.
+    fn find(pixels: &[(usize, usize)], bg: &Background, half_width_px: f64) -> Option<Self> {
+        let entry = entry_point(pixels, bg)?;
+        let centres: Vec<Vec2> = pixels.iter().map(|&p| centre(p)).collect();
+        let dist = |p: &Vec2| (p - entry).norm();
+        let far = *centres.iter().max_by(|a, b| dist(a).total_cmp(&dist(b)))?;
+        let reach = dist(&far);
+        let near: Vec<Vec2> = centres.iter().copied().filter(|p| dist(p) < 0.7 * reach).collect();
+        let (u, mean) = if near.len() >= 8 {
+            let mean = near.iter().sum::<Vec2>() / near.len() as f64;
+            let axis = principal_axis(&near, &mean);
+            (if axis.dot(&(far - entry)) < 0.0 { -axis } else { axis }, mean)
+        } else {
+            ((far - entry).try_normalize(1e-9)?, entry)
+        };
+        let mut shaft = Self { mean, u, far, half_width_px };
+        let lat = Vec2::new(-u.y, u.x);
+        let loose = |p: &&Vec2| {
+            let d = *p - mean;
+            d.dot(&lat).abs() <= half_width_px + d.dot(&u).abs() * TAPER_ALLOWANCE
+        };
+        let along = |p: &Vec2| (p - entry).dot(&u);
+        shaft.far = *centres.iter().filter(loose).max_by(|a, b| along(a).total_cmp(&along(b)))?;
+        Some(shaft)
+    }
+
+    /// Whether `p` lies within the shaft's outline (tip half-width growing back from the tip).
+    fn covers(&self, p: &Vec2) -> bool {
+        let lat = Vec2::new(-self.u.y, self.u.x);
+        let back = (self.far - p).dot(&self.u);
+        back >= -1.0
+            && (p - self.mean).dot(&lat).abs()
+                <= self.half_width_px + back.max(0.0) * TAPER_ALLOWANCE
+    }
+}
+
+/// Where the needle comes into view: the mean of its pixels on the frame edge or beside a
+/// wall, else (a needle reaching neither) the thicker end of its long axis.
+fn entry_point(pixels: &[(usize, usize)], bg: &Background) -> Option<Vec2> {
+    let (w, h) = (bg.width(), bg.height());
+    let anchors: Vec<Vec2> = pixels
+        .iter()
+        .filter(|&&(x, y)| x == 0 || y == 0 || x + 1 == w || y + 1 == h || bg.is_near_wall(x, y, 2))
+        .map(|&p| centre(p))
+        .collect();
+    if anchors.is_empty() {
+        thick_end(pixels)
+    } else {
+        Some(anchors.iter().sum::<Vec2>() / anchors.len() as f64)
+    }
+}
+
+/// Unit vector along the major axis of a point cloud about `mean`.
+fn principal_axis(points: &[Vec2], mean: &Vec2) -> Vec2 {
+    let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+    for p in points {
+        let d = p - mean;
+        sxx += d.x * d.x;
+        syy += d.y * d.y;
+        sxy += d.x * d.y;
+    }
+    let phi = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    Vec2::new(phi.cos(), phi.sin())
+}
+
+/// For a needle that reaches neither edge nor wall: the end of its long axis where it is wider.
+fn thick_end(pixels: &[(usize, usize)]) -> Option<Vec2> {
+    if pixels.is_empty() {
+        return None;
+    }
+    let pts: Vec<Vec2> = pixels.iter().map(|&p| centre(p)).collect();
+    let mean = pts.iter().sum::<Vec2>() / pts.len() as f64;
+    let u = principal_axis(&pts, &mean);
+    let s: Vec<f64> = pts.iter().map(|p| (p - mean).dot(&u)).collect();
+    let (lo, hi) =
+        s.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    let near_lo = s.iter().filter(|&&v| v < lo + 8.0).count();
+    let near_hi = s.iter().filter(|&&v| v > hi - 8.0).count();
+    Some(if near_lo >= near_hi { mean + u * lo } else { mean + u * hi })
+}
+
+/// Sub-pixel centre of the rounded tip: the darkening mass in a window behind the far end,
+/// read as a cylinder of the tip's diameter capped by a half disc.
+fn refine_tip(t: &TipInput<'_>, shaft: &Shaft, r_px: f64) -> Vec2 {
+    let w = t.bg.width();
+    let (u, far) = (shaft.u, shaft.far);
+    let lat = Vec2::new(-u.y, u.x);
+    let deep: Vec<f32> = t
+        .pixels
+        .iter()
+        .map(|&(x, y)| y * w + x)
+        .filter(|&k| t.depth[k] >= 6 && t.needle[k])
+        .map(|k| t.darkening[k])
+        .collect();
+    let contrast = if deep.len() >= 10 {
+        f64::from(deep.iter().sum::<f32>()) / deep.len() as f64
+    } else {
+        f64::from(t.pixels.iter().map(|&(x, y)| t.darkening[y * w + x]).fold(0.0f32, f32::max))
+    };
+    if contrast <= 0.05 {
+        return far;
+    }
+    let (s0, s1, half) = (-6.0, 4.0, r_px + 3.0);
+    let (mut mass, mut lat_sum) = (0.0, 0.0);
+    let (x0, y0) = (far.x.floor() as isize - 12, far.y.floor() as isize - 12);
+    for y in y0.max(0)..(y0 + 25).min(t.bg.height() as isize) {
+        for x in x0.max(0)..(x0 + 25).min(w as isize) {
+            let k = y as usize * w + x as usize;
+            let d = Vec2::new(x as f64 + 0.5, y as f64 + 0.5) - far;
+            let (s, l) = (d.dot(&u), d.dot(&lat));
+            if s < s0 || s > s1 || l.abs() > half || (t.mask[k] && !t.needle[k]) {
+                continue;
+            }
+            let wgt = (f64::from(t.darkening[k]) / contrast).clamp(-0.5, 1.5);
+            mass += wgt;
+            lat_sum += wgt * l;
+        }
+    }
+    if mass <= 0.0 {
+        return far;
+    }
+    let s_centre = s0 + (mass - std::f64::consts::FRAC_PI_2 * r_px * r_px) / (2.0 * r_px);
+    far + u * s_centre + lat * (lat_sum / mass)
+}

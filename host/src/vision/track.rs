@@ -1,0 +1,301 @@
+//! The tracking pipeline (paper §IV): background subtraction, thresholding, removal of the
+//! probe by its geometry (locating its tip), then the peg's centroid and orientation from the
+//! second moments of the remaining blob, weighted by partial pixel coverage. Every result
+//! carries a confidence and flags; a sequence keeps its orientation continuous.
+
+use image::GrayImage;
+
+use crate::Error;
+use crate::geom::{ConvexPolygon, Pose, Vec2};
+use crate::vision::assess::{
+    FLAGGED_CONFIDENCE_CAP, Flag, Measurement, is_jump, nearest_branch, shape_confidence,
+};
+use crate::vision::background::Background;
+use crate::vision::calib::Calibration;
+use crate::vision::moments::{MomentSums, Moments, polygon_moments};
+use crate::vision::morph::{Component, Roi, chamfer, label_components};
+use crate::vision::probe::{ProbeSettings, separate_probe};
+use crate::vision::scene::paper_peg;
+use crate::vision::threshold::{Threshold, threshold_level};
+
+/// Tracker settings. Plain data; see `Default` for the documented values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackSettings {
+    /// Pixels ↔ fixture frame (default: 3370 × 2520 µm over 640 × 480, origin top-left).
+    pub calibration: Calibration,
+    /// Threshold on the darkening (default: Otsu, at least 0.12 of the plate's light).
+    pub threshold: Threshold,
+    /// The peg's outline in its body frame (default: the paper's 1615 × 985 µm rectangle).
+    /// Used to check the blob's shape and to turn the ellipse's axis into the body's θ.
+    pub peg: ConvexPolygon,
+    /// What is known of the probe.
+    pub probe: ProbeSettings,
+    /// Pixels around the thresholded peg included with their gray-level weight (default 3).
+    pub band_px: usize,
+    /// Relative area error scoring one standard deviation of confidence loss (default 0.02).
+    pub area_tolerance: f64,
+    /// Relative second-moment error scoring one standard deviation (default 0.025).
+    pub moment_tolerance: f64,
+    /// Below this shape confidence the frame is flagged `shape_mismatch` (default 0.3).
+    pub min_confidence: f64,
+    /// Largest plausible move between consecutive frames in a sequence, µm (default 400).
+    pub max_step_um: f64,
+    /// Largest plausible turn between consecutive frames in a sequence, rad (default 0.35).
+    pub max_step_rad: f64,
+    /// Orientation the first frame of a sequence is taken to be near, rad (default 0).
+    pub theta_hint_rad: f64,
+}
+
+impl Default for TrackSettings {
+    fn default() -> Self {
+        Self {
+            calibration: Calibration::default(),
+            threshold: Threshold::default(),
+            peg: paper_peg(),
+            probe: ProbeSettings::default(),
+            band_px: 3,
+            area_tolerance: 0.02,
+            moment_tolerance: 0.025,
+            min_confidence: 0.3,
+            max_step_um: 400.0,
+            max_step_rad: 0.35,
+            theta_hint_rad: 0.0,
+        }
+    }
+}
+
+/// Measures frames against one background. Reuse it: it keeps scratch buffers and, for
+/// [`Tracker::track`], the last good pose.
+#[derive(Debug, Clone)]
+pub struct Tracker {
+    settings: TrackSettings,
+    bg: Background,
+    expected: Moments,
+    body_axis_rad: f64,
+    dark: Vec<f32>,
+    prev: Option<Pose>,
+}
+
+/// The pieces of one frame the peg's moments are computed from.
+struct Blob<'a> {
+    peg: &'a Component,
+    labels: &'a [u32],
+    rest: &'a [bool],
+    needle: &'a [bool],
+    depth: &'a [u16],
+}
+
+/// What the weighted pass over the peg found.
+struct Weighed {
+    moments: Option<Moments>,
+    occluded_px: usize,
+    wall_px: usize,
+    wall_adjacent_px: usize,
+}
+
+impl Tracker {
+    /// A tracker for frames like `background` (the empty fixture, same size and lighting).
+    pub fn new(background: &GrayImage, settings: TrackSettings) -> Result<Self, Error> {
+        if settings.probe.max_half_width_px < 1.0 || !settings.probe.max_half_width_px.is_finite() {
+            return Err(Error::invalid("probe max_half_width_px", "must be ≥ 1 px"));
+        }
+        if !(settings.area_tolerance > 0.0 && settings.moment_tolerance > 0.0) {
+            return Err(Error::invalid("track tolerances", "must be > 0"));
+        }
+        let bg = Background::new(background)?;
+        let expected = polygon_moments(&settings.peg);
+        let body_axis_rad = expected.major_axis_angle();
+        Ok(Self { settings, bg, expected, body_axis_rad, dark: Vec::new(), prev: None })
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &TrackSettings {
+        &self.settings
+    }
+
+    /// Forgets the sequence: the next [`Tracker::track`] starts from the θ hint again.
+    pub fn reset(&mut self) {
+        self.prev = None;
+    }
+
+    /// Measures one frame on its own: θ is given on the branch nearest the θ hint.
+    pub fn measure(&mut self, frame: &GrayImage) -> Result<Measurement, Error> {
+        let hint = self.settings.theta_hint_rad;
+        self.measure_near(frame, hint)
+    }
+
+    /// Measures the next frame of a sequence: θ continues from the last good frame, and a
+    /// pose that jumps further than a push can move the peg in one frame is flagged.
+    pub fn track(&mut self, frame: &GrayImage) -> Result<Measurement, Error> {
+        let reference = self.prev.map_or(self.settings.theta_hint_rad, |p| p.theta_rad);
+        let mut m = self.measure_near(frame, reference)?;
+        if let (Some(pose), Some(prev)) = (m.pose, self.prev) {
+            if is_jump(&pose, &prev, self.settings.max_step_um, self.settings.max_step_rad) {
+                m.flags.push(Flag::Jump);
+                m.confidence = m.confidence.min(FLAGGED_CONFIDENCE_CAP);
+            }
+        }
+        // A frame whose only fault is the jump is still a good view: follow it, so one real
+        // jump flags one frame, not the rest of the sequence.
+        if m.pose.is_some() && m.flags.iter().all(|f| *f == Flag::Jump) {
+            self.prev = m.pose;
+        }
+        Ok(m)
+    }
+
+    fn measure_near(
+        &mut self,
+        frame: &GrayImage,
+        reference_rad: f64,
+    ) -> Result<Measurement, Error> {
+        let mut dark = std::mem::take(&mut self.dark);
+        let res =
+            self.bg.darkening(frame, &mut dark).map(|()| self.measure_dark(&dark, reference_rad));
+        self.dark = dark;
+        res
+    }
+
+    fn measure_dark(&self, dark: &[f32], reference_rad: f64) -> Measurement {
+        let (w, h) = (self.bg.width(), self.bg.height());
+        let calib = &self.settings.calibration;
+        let threshold = threshold_level(self.settings.threshold, dark);
+        let mask: Vec<bool> = dark.iter().map(|&d| d > threshold).collect();
+        let tip_r_px = 0.5 * self.settings.probe.tip_diameter_um / calib.mean_um_per_px();
+        let sep = separate_probe(&mask, dark, &self.bg, &self.settings.probe, tip_r_px);
+        let probe_tip_um = sep.tip_px.map(|p| calib.px_to_um(&p));
+        let rest: Vec<bool> = mask.iter().zip(&sep.needle).map(|(&m, &n)| m && !n).collect();
+        let (labels, comps) = label_components(&rest, w, h);
+        let px_area = calib.sx_um_per_px * calib.sy_um_per_px;
+        let min_px = (0.25 * self.expected.area_um2 / px_area) as usize;
+        let none = |flags| Measurement {
+            pose: None,
+            probe_tip_um,
+            confidence: 0.0,
+            flags,
+            threshold,
+            area_um2: 0.0,
+        };
+        let Some(peg) = comps.iter().filter(|c| c.area >= min_px).max_by_key(|c| c.area) else {
+            return none(vec![Flag::NoPeg]);
+        };
+        let blob =
+            Blob { peg, labels: &labels, rest: &rest, needle: &sep.needle, depth: &sep.depth };
+        let weighed = self.weigh(&blob, dark);
+        let Some(moments) = weighed.moments else { return none(vec![Flag::NoPeg]) };
+        let s = &self.settings;
+        let theta = nearest_branch(moments.major_axis_angle() - self.body_axis_rad, reference_rad);
+        let pose = Pose::new(moments.centroid.x, moments.centroid.y, theta);
+        let mut confidence =
+            shape_confidence(&moments, &self.expected, s.area_tolerance, s.moment_tolerance);
+        let mut flags = Vec::new();
+        if self.near_border(peg.bbox, &pose) {
+            flags.push(Flag::OutOfField);
+        }
+        // Flush against a wall is fine when the whole peg is seen; a wall hiding part of it
+        // shows as a shape that is a little off (or the blob reaching into the wall).
+        if weighed.wall_px >= 3 || (weighed.wall_adjacent_px >= 3 && confidence < 0.9) {
+            flags.push(Flag::Wall);
+        }
+        if weighed.occluded_px >= 12 {
+            flags.push(Flag::ProbeOcclusion);
+        }
+        if confidence < s.min_confidence {
+            flags.push(Flag::ShapeMismatch);
+        }
+        if moments.anisotropy() < 0.05 || self.expected.anisotropy() < 0.05 {
+            flags.push(Flag::AmbiguousOrientation);
+        }
+        if !flags.is_empty() {
+            confidence = confidence.min(FLAGGED_CONFIDENCE_CAP);
+        }
+        let area_um2 = moments.area_um2;
+        Measurement { pose: Some(pose), probe_tip_um, confidence, flags, threshold, area_um2 }
+    }
+
+    /// Whether the blob reaches the image border, or the peg's outline placed at the measured
+    /// pose does (a peg cut by the border measures shifted inwards, but by less than the cut).
+    fn near_border(&self, bbox: Roi, pose: &Pose) -> bool {
+        let (w, h) = (self.bg.width(), self.bg.height());
+        let b = self.settings.band_px;
+        if bbox.x0 < b || bbox.y0 < b || bbox.x1 + b > w || bbox.y1 + b > h {
+            return true;
+        }
+        let m = b as f64;
+        let calib = &self.settings.calibration;
+        self.settings.peg.transformed(pose).vertices().iter().any(|v| {
+            let p = calib.um_to_px(v);
+            p.x < m || p.y < m || p.x > w as f64 - m || p.y > h as f64 - m
+        })
+    }
+
+    /// Gray-level weighted moments of the peg: its thresholded pixels plus a band around them
+    /// (where partial coverage and blur put the edge), away from the needle and other blobs.
+    fn weigh(&self, blob: &Blob<'_>, dark: &[f32]) -> Weighed {
+        let (w, h) = (self.bg.width(), self.bg.height());
+        let calib = &self.settings.calibration;
+        let band3 = (3 * self.settings.band_px) as u16;
+        let roi = blob.peg.bbox.grown(self.settings.band_px + 1, w, h);
+        let label = blob.peg.label;
+        let in_peg = |x: usize, y: usize| blob.labels[y * w + x] == label;
+        let to_peg = chamfer(roi, false, in_peg);
+        let to_needle = chamfer(roi.grown(0, w, h), false, |x, y| blob.needle[y * w + x]);
+        let contrast = self.interior_contrast(blob, dark, roi);
+        let occl_level = contrast + (0.5 * (1.0 - contrast)).max(0.1);
+        let origin = Vec2::new(0.5 * (roi.x0 + roi.x1) as f64, 0.5 * (roi.y0 + roi.y1) as f64);
+        let mut sums = MomentSums::new(origin, calib.sx_um_per_px, calib.sy_um_per_px);
+        let (mut occluded_px, mut wall_px, mut wall_adjacent_px) = (0, 0, 0);
+        for y in roi.y0..roi.y1 {
+            for x in roi.x0..roi.x1 {
+                let (k, r) = (y * w + x, (y - roi.y0) * roi.width() + (x - roi.x0));
+                let near_needle = to_needle[r] <= band3 + 3;
+                if in_peg(x, y) {
+                    wall_px += usize::from(self.bg.is_wall_core(k));
+                    wall_adjacent_px += usize::from(self.bg.is_near_wall(x, y, 2));
+                    let deep = blob.depth[k] >= 9 && !near_needle && to_needle[r] > 12;
+                    occluded_px += usize::from(deep && dark[k] > occl_level);
+                } else if to_peg[r] > band3 || near_needle || blob.rest[k] || blob.needle[k] {
+                    continue;
+                }
+                sums.add(x, y, f64::from(dark[k] / contrast).clamp(-0.5, 1.5));
+            }
+        }
+        let moments = sums.finish().map(|(area_um2, c_px, second)| Moments {
+            area_um2,
+            centroid: calib.px_to_um(&c_px),
+            second,
+        });
+        Weighed { moments, occluded_px, wall_px, wall_adjacent_px }
+    }
+
+    /// Median darkening of the peg's pixels at least 3 px inside its outline: the value a
+    /// fully covered pixel has, so edge pixels weigh by their covered share.
+    fn interior_contrast(&self, blob: &Blob<'_>, dark: &[f32], roi: Roi) -> f32 {
+        let w = self.bg.width();
+        let mut hist = [0u32; 512];
+        let mut n = 0u32;
+        let mut all = 0.0f64;
+        for y in roi.y0..roi.y1 {
+            for x in roi.x0..roi.x1 {
+                let k = y * w + x;
+                if blob.labels[k] == blob.peg.label {
+                    all += f64::from(dark[k]);
+                    if blob.depth[k] >= 9 {
+                        hist[((dark[k] * 340.0).clamp(0.0, 511.0)) as usize] += 1;
+                        n += 1;
+                    }
+                }
+            }
+        }
+        if n < 20 {
+            return ((all / blob.peg.area as f64) as f32).max(0.05);
+        }
+        let mut acc = 0;
+        for (i, c) in hist.iter().enumerate() {
+            acc += c;
+            if 2 * acc >= n {
+                return ((i as f32 + 0.5) / 340.0).max(0.05);
+            }
+        }
+        0.05
+    }
+}

@@ -1,0 +1,78 @@
+//! Accuracy of the tracker on rendered frames with noise (issue 4's targets): over 240 random
+//! frames, the unflagged poses must be within 2 µm / 0.3° RMS and none off by more than 10 µm
+//! or 2°. Run with `-- --nocapture` to see the figures.
+
+mod vision_support;
+
+use mesopush_host::vision::{TrackSettings, Tracker};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use vision_support::{Generator, Placement, ProbeUse, Stats, errors};
+
+const SEED: u64 = 20_261_121;
+const FRAMES: usize = 240;
+
+#[test]
+fn unflagged_poses_meet_the_accuracy_targets() {
+    let mut rng = ChaCha8Rng::seed_from_u64(SEED);
+    let mut generator = Generator::new(&mut rng);
+    let mut tracker = Tracker::new(&generator.background, TrackSettings::default()).unwrap();
+    let (mut all, mut clean) = (Stats::default(), Stats::default());
+    let mut tip_err2 = (0.0, 0usize);
+    for i in 0..FRAMES {
+        let case = generator.case(&mut rng);
+        let m = tracker.measure(&case.frame.image).unwrap();
+        let truth = case.frame.truth.peg_pose.unwrap();
+        if let Some((d, a)) = errors(&m, &truth) {
+            if !m.is_flagged() && (d > 10.0 || a.to_degrees() > 2.0) {
+                panic!(
+                    "seed {SEED} frame {i} ({:?}, {:?}): unflagged error {d:.2} µm {:.3}°, {m:?}",
+                    case.placement,
+                    case.probe,
+                    a.to_degrees()
+                );
+            }
+        }
+        all.add(&m, &truth);
+        if case.frame.truth.peg_in_field
+            && case.placement == Placement::Wide
+            && case.probe != ProbeUse::Over
+        {
+            clean.add(&m, &truth);
+        }
+        if case.probe == ProbeUse::Touching && !m.is_flagged() {
+            let (t, tm) = (case.frame.truth.probe_tip_um.unwrap(), m.probe_tip_um);
+            let tm = tm.unwrap_or_else(|| panic!("seed {SEED} frame {i}: probe tip not found"));
+            tip_err2.0 += (t - tm).norm_squared();
+            tip_err2.1 += 1;
+        }
+    }
+    let tip_rms = (tip_err2.0 / tip_err2.1.max(1) as f64).sqrt();
+    println!(
+        "vision accuracy (seed {SEED}, {} frames): RMS position {:.3} µm, RMS orientation {:.4}°, \
+         flagged {:.1} % ({} of {}), max unflagged error {:.3} µm / {:.4}°; probe tip RMS {:.2} µm \
+         over {} frames; clean frames flagged {} of {}",
+        all.frames,
+        all.rms_um(),
+        all.rms_deg(),
+        100.0 * all.share_flagged(),
+        all.flagged,
+        all.frames,
+        all.max_d,
+        all.max_a.to_degrees(),
+        tip_rms,
+        tip_err2.1,
+        clean.flagged,
+        clean.frames
+    );
+    assert!(all.frames >= 200);
+    assert!(all.rms_um() <= 2.0, "RMS position {} µm (seed {SEED})", all.rms_um());
+    assert!(all.rms_deg() <= 0.3, "RMS orientation {}° (seed {SEED})", all.rms_deg());
+    // flagging everything would pass the bounds above: the clean frames must mostly count
+    assert!(
+        clean.frames >= 100 && clean.share_flagged() < 0.05,
+        "clean frames flagged: {} of {}",
+        clean.flagged,
+        clean.frames
+    );
+}
