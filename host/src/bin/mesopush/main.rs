@@ -2,6 +2,7 @@
 //! its flags, calls the library and prints.
 
 mod cmd_render;
+mod cmd_track;
 
 use clap::{Parser, Subcommand};
 
@@ -17,11 +18,14 @@ struct Cli {
 enum Command {
     /// Render a synthetic microscope sequence (PNG frames, frames.csv, truth.csv, bg.png).
     Render(cmd_render::RenderArgs),
+    /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
+    Track(cmd_track::TrackArgs),
 }
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Render(args) => cmd_render::run(&args),
+        Command::Track(args) => cmd_track::run(&args),
     }
 }
