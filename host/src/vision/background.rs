@@ -19,6 +19,8 @@ pub struct Background {
     inv_light: Vec<f32>,
     /// Wall pixels at least one pixel from the wall's edge.
     wall_core: Vec<bool>,
+    /// Pixels with a wall-core pixel 2 px away along their row or column (or on one).
+    near_wall: Vec<bool>,
 }
 
 impl Background {
@@ -57,7 +59,17 @@ impl Background {
                 }
             }
         }
-        Ok(Self { width: w, height: h, bg, inv_light, wall_core })
+        let near_wall = (0..w * h)
+            .map(|k| {
+                let (x, y) = (k % w, k / w);
+                wall_core[k]
+                    || (x >= 2 && wall_core[k - 2])
+                    || (x + 2 < w && wall_core[k + 2])
+                    || (y >= 2 && wall_core[k - 2 * w])
+                    || (y + 2 < h && wall_core[k + 2 * w])
+            })
+            .collect();
+        Ok(Self { width: w, height: h, bg, inv_light, wall_core, near_wall })
     }
 
     /// Image width, px.
@@ -75,15 +87,10 @@ impl Background {
         self.wall_core[k]
     }
 
-    /// Whether a wall-core pixel lies within `d` pixels of `(x, y)` along a row or column.
-    pub fn is_near_wall(&self, x: usize, y: usize, d: usize) -> bool {
-        let (w, h) = (self.width, self.height);
-        let k = y * w + x;
-        self.wall_core[k]
-            || (x >= d && self.wall_core[k - d])
-            || (x + d < w && self.wall_core[k + d])
-            || (y >= d && self.wall_core[k - d * w])
-            || (y + d < h && self.wall_core[k + d * w])
+    /// Whether a wall-core pixel lies within 2 pixels of pixel index `k` along its row or
+    /// column (precomputed).
+    pub fn is_near_wall(&self, k: usize) -> bool {
+        self.near_wall[k]
     }
 
     /// Darkening of `frame` against the background as a share of the local plate light:

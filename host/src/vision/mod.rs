@@ -6,6 +6,9 @@
 pub mod assess;
 pub mod background;
 pub mod calib;
+pub mod capture;
+#[cfg(feature = "v4l")]
+pub mod capture_v4l;
 pub mod demo;
 pub mod folder;
 pub mod moments;

@@ -79,15 +79,32 @@ impl MomentSums {
     /// Adds pixel `(i, j)` with weight `w` (its covered share).
     #[inline]
     pub fn add(&mut self, i: usize, j: usize, w: f64) {
-        let x = (i as f64 + 0.5 - self.origin.x) * self.sx;
-        let y = (j as f64 + 0.5 - self.origin.y) * self.sy;
+        let mut row = self.row(j);
+        row.add(i, w as f32);
+        self.add_row(&row);
+    }
+
+    /// An accumulator for the pixels of row `j` (cheaper per pixel; add it back with
+    /// [`MomentSums::add_row`]).
+    pub fn row(&self, j: usize) -> RowSums {
+        RowSums { j, s: [0.0; 3] }
+    }
+
+    /// Adds a row's sums.
+    pub fn add_row(&mut self, row: &RowSums) {
+        let [s0, s1, s2] = row.s;
+        // x = (i + 0.5 - ox) sx: expand Σw x, Σw x² from Σw, Σw i, Σw i²
+        let (a, sx) = (0.5 - self.origin.x, self.sx);
+        let sum_x = sx * (s1 + a * s0);
+        let sum_xx = sx * sx * (s2 + 2.0 * a * s1 + a * a * s0);
+        let y = (row.j as f64 + 0.5 - self.origin.y) * self.sy;
         let m = &mut self.m;
-        m[0] += w;
-        m[1] += w * x;
-        m[2] += w * y;
-        m[3] += w * x * x;
-        m[4] += w * y * y;
-        m[5] += w * x * y;
+        m[0] += s0;
+        m[1] += sum_x;
+        m[2] += y * s0;
+        m[3] += sum_xx;
+        m[4] += y * y * s0;
+        m[5] += y * sum_x;
     }
 
     /// The moments in continuous pixel coordinates scaled to µm (add the calibration origin
@@ -104,6 +121,24 @@ impl MomentSums {
         let xy = m[5] / m[0] - cx * cy;
         let c_px = Vec2::new(cx / self.sx + self.origin.x, cy / self.sy + self.origin.y);
         Some((m[0] * self.sx * self.sy, c_px, (xx, yy, xy)))
+    }
+}
+
+/// Per-row sums Σw, Σw·i, Σw·i² (pixel column `i`), in f64.
+#[derive(Debug, Clone, Copy)]
+pub struct RowSums {
+    j: usize,
+    s: [f64; 3],
+}
+
+impl RowSums {
+    /// Adds pixel column `i` with weight `w`.
+    #[inline]
+    pub fn add(&mut self, i: usize, w: f32) {
+        let (w, i) = (f64::from(w), i as f64);
+        self.s[0] += w;
+        self.s[1] += w * i;
+        self.s[2] += w * i * i;
     }
 }
 

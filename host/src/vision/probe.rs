@@ -5,7 +5,7 @@
 
 use crate::geom::Vec2;
 use crate::vision::background::Background;
-use crate::vision::morph::{Component, Roi, chamfer, label_components};
+use crate::vision::morph::{Component, Roi, chamfer, dilate_square, label_components, mask_bounds};
 
 /// What the tracker knows about the probe.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,16 +43,31 @@ pub(crate) fn separate_probe(
     tip_radius_px: f64,
 ) -> Separation {
     let (w, h) = (bg.width(), bg.height());
-    let roi = Roi::full(w, h);
-    let depth = chamfer(roi, false, |x, y| !mask[y * w + x]);
+    let mut depth = vec![0u16; w * h];
+    let Some(bounds) = mask_bounds(mask, w, h) else {
+        return Separation { needle: vec![false; w * h], depth, tip_px: None };
+    };
+    // one pixel more: non-mask pixels around the blobs are the depth's sources, while the
+    // image border is not (a peg cut by the border must not look thin there)
+    let roi = bounds.grown(1, w, h);
+    let local = chamfer(roi, false, |x, y| !mask[y * w + x]);
+    for (j, row) in local.chunks_exact(roi.width()).enumerate() {
+        let k = (roi.y0 + j) * w + roi.x0;
+        depth[k..k + roi.width()].copy_from_slice(row);
+    }
     let r3 = (3.0 * settings.max_half_width_px).round() as u16;
-    let to_core = chamfer(roi, false, |x, y| {
+    let to_core_local = chamfer(roi, false, |x, y| {
         let d = depth[y * w + x];
         d > r3 && d != u16::MAX
     });
-    let thin: Vec<bool> =
-        (0..w * h).map(|k| mask[k] && to_core[k] > r3.saturating_add(1)).collect();
-    let (labels, comps) = label_components(&thin, w, h);
+    let mut thin = vec![false; w * h];
+    for (j, row) in to_core_local.chunks_exact(roi.width()).enumerate() {
+        let k = (roi.y0 + j) * w + roi.x0;
+        for (i, &d) in row.iter().enumerate() {
+            thin[k + i] = mask[k + i] && d > r3.saturating_add(1);
+        }
+    }
+    let (labels, comps) = label_components(&thin, w, h, roi);
     // Corner slivers of the peg left by the opening are at most (1 − π/4) r² in area.
     let min_area = (0.5 * settings.max_half_width_px.powi(2)).max(12.0) as usize;
     let on_border =
@@ -62,8 +77,12 @@ pub(crate) fn separate_probe(
         .filter(|c| c.area >= min_area || (on_border(c) && c.area >= 12))
         .map(|c| c.label)
         .collect();
-    let mut needle: Vec<bool> =
-        labels.iter().map(|l| *l != 0 && needle_labels.contains(l)).collect();
+    let mut needle = vec![false; w * h];
+    for y in roi.y0..roi.y1 {
+        for k in y * w + roi.x0..y * w + roi.x1 {
+            needle[k] = labels[k] != 0 && needle_labels.contains(&labels[k]);
+        }
+    }
     let biggest = comps.iter().filter(|c| needle_labels.contains(&c.label)).max_by_key(|c| c.area);
     let mut tip_px = None;
     if let Some(c) = biggest {
@@ -85,6 +104,61 @@ pub(crate) fn separate_probe(
         }
     }
     Separation { needle, depth, tip_px }
+}
+
+/// Where the needle is near the peg: pixels within `band + 1` of it are left out of the band,
+/// and peg pixels within `band + 4` are not judged for occlusion. Computed only around the
+/// needle pixels that come near the peg's region, usually a small patch or none.
+pub(crate) struct NeedleZone {
+    zone: Option<Zone>,
+}
+
+struct Zone {
+    roi: Roi,
+    near: Vec<bool>,
+    beside: Vec<bool>,
+}
+
+impl NeedleZone {
+    pub(crate) fn new(needle: &[bool], w: usize, h: usize, roi: Roi, band: usize) -> Self {
+        let reach = roi.grown(band + 4, w, h);
+        let mut found: Option<Roi> = None;
+        for y in reach.y0..reach.y1 {
+            let row = &needle[y * w + reach.x0..y * w + reach.x1];
+            if let (Some(a), Some(b)) = (row.iter().position(|&n| n), row.iter().rposition(|&n| n))
+            {
+                let (x0, x1) = (reach.x0 + a, reach.x0 + b + 1);
+                found = Some(match found {
+                    None => Roi { x0, y0: y, x1, y1: y + 1 },
+                    Some(f) => Roi { x0: f.x0.min(x0), y0: f.y0, x1: f.x1.max(x1), y1: y + 1 },
+                });
+            }
+        }
+        let zone = found.map(|f| {
+            let z = f.grown(band + 4, w, h);
+            let near = dilate_square(z, band + 1, |x, y| needle[y * w + x]);
+            let beside = dilate_square(z, band + 4, |x, y| needle[y * w + x]);
+            Zone { roi: z, near, beside }
+        });
+        Self { zone }
+    }
+
+    fn index(&self, x: usize, y: usize) -> Option<(usize, &Zone)> {
+        let z = self.zone.as_ref()?;
+        let r = z.roi;
+        (x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1)
+            .then(|| ((y - r.y0) * r.width() + (x - r.x0), z))
+    }
+
+    /// Within `band + 1` px of a needle pixel.
+    pub(crate) fn near(&self, x: usize, y: usize) -> bool {
+        self.index(x, y).is_some_and(|(i, z)| z.near[i])
+    }
+
+    /// Within `band + 4` px of a needle pixel.
+    pub(crate) fn beside(&self, x: usize, y: usize) -> bool {
+        self.index(x, y).is_some_and(|(i, z)| z.beside[i])
+    }
 }
 
 struct TipInput<'a> {
@@ -161,7 +235,9 @@ fn entry_point(pixels: &[(usize, usize)], bg: &Background) -> Option<Vec2> {
     let (w, h) = (bg.width(), bg.height());
     let anchors: Vec<Vec2> = pixels
         .iter()
-        .filter(|&&(x, y)| x == 0 || y == 0 || x + 1 == w || y + 1 == h || bg.is_near_wall(x, y, 2))
+        .filter(|&&(x, y)| {
+            x == 0 || y == 0 || x + 1 == w || y + 1 == h || bg.is_near_wall(y * w + x)
+        })
         .map(|&p| centre(p))
         .collect();
     if anchors.is_empty() {

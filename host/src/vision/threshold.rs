@@ -32,15 +32,18 @@ pub fn threshold_level(t: Threshold, darkening: &[f32]) -> f32 {
     }
 }
 
-/// Otsu's threshold: maximises the between-class variance of the histogram.
+/// Otsu's threshold: maximises the between-class variance of the histogram (of every fourth
+/// value of a large image: plenty of samples at a quarter of the time).
 pub fn otsu(values: &[f32]) -> f32 {
     let mut hist = [0u32; BINS];
     let scale = BINS as f32 / (HI - LO);
-    for &v in values {
+    let step = if values.len() >= 16_384 { 4 } else { 1 };
+    let mut total = 0.0f64;
+    for &v in values.iter().step_by(step) {
+        total += 1.0;
         let b = ((v - LO) * scale).clamp(0.0, (BINS - 1) as f32) as usize;
         hist[b] += 1;
     }
-    let total: f64 = values.len() as f64;
     let sum_all: f64 = hist.iter().enumerate().map(|(i, &c)| i as f64 * f64::from(c)).sum();
     let (mut w0, mut sum0, mut best, mut best_bin) = (0.0, 0.0, -1.0, 0usize);
     for (i, &c) in hist.iter().enumerate() {

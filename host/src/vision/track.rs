@@ -13,8 +13,8 @@ use crate::vision::assess::{
 use crate::vision::background::Background;
 use crate::vision::calib::Calibration;
 use crate::vision::moments::{MomentSums, Moments, polygon_moments};
-use crate::vision::morph::{Component, Roi, chamfer, label_components};
-use crate::vision::probe::{ProbeSettings, separate_probe};
+use crate::vision::morph::{Component, Roi, dilate_square, label_components, mask_bounds};
+use crate::vision::probe::{NeedleZone, ProbeSettings, separate_probe};
 use crate::vision::scene::paper_peg;
 use crate::vision::threshold::{Threshold, threshold_level};
 
@@ -164,7 +164,8 @@ impl Tracker {
         let sep = separate_probe(&mask, dark, &self.bg, &self.settings.probe, tip_r_px);
         let probe_tip_um = sep.tip_px.map(|p| calib.px_to_um(&p));
         let rest: Vec<bool> = mask.iter().zip(&sep.needle).map(|(&m, &n)| m && !n).collect();
-        let (labels, comps) = label_components(&rest, w, h);
+        let roi = mask_bounds(&rest, w, h).unwrap_or(Roi { x0: 0, y0: 0, x1: 0, y1: 0 });
+        let (labels, comps) = label_components(&rest, w, h, roi);
         let px_area = calib.sx_um_per_px * calib.sy_um_per_px;
         let min_px = (0.25 * self.expected.area_um2 / px_area) as usize;
         let none = |flags| Measurement {
@@ -233,31 +234,32 @@ impl Tracker {
     fn weigh(&self, blob: &Blob<'_>, dark: &[f32]) -> Weighed {
         let (w, h) = (self.bg.width(), self.bg.height());
         let calib = &self.settings.calibration;
-        let band3 = (3 * self.settings.band_px) as u16;
-        let roi = blob.peg.bbox.grown(self.settings.band_px + 1, w, h);
+        let band = self.settings.band_px;
+        let roi = blob.peg.bbox.grown(band + 1, w, h);
         let label = blob.peg.label;
-        let in_peg = |x: usize, y: usize| blob.labels[y * w + x] == label;
-        let to_peg = chamfer(roi, false, in_peg);
-        let to_needle = chamfer(roi.grown(0, w, h), false, |x, y| blob.needle[y * w + x]);
+        let near_peg = dilate_square(roi, band, |x, y| blob.labels[y * w + x] == label);
+        let needle = NeedleZone::new(blob.needle, w, h, roi, band);
         let contrast = self.interior_contrast(blob, dark, roi);
         let occl_level = contrast + (0.5 * (1.0 - contrast)).max(0.1);
         let origin = Vec2::new(0.5 * (roi.x0 + roi.x1) as f64, 0.5 * (roi.y0 + roi.y1) as f64);
         let mut sums = MomentSums::new(origin, calib.sx_um_per_px, calib.sy_um_per_px);
         let (mut occluded_px, mut wall_px, mut wall_adjacent_px) = (0, 0, 0);
+        let inv_contrast = 1.0 / contrast;
         for y in roi.y0..roi.y1 {
+            let mut row = sums.row(y);
             for x in roi.x0..roi.x1 {
                 let (k, r) = (y * w + x, (y - roi.y0) * roi.width() + (x - roi.x0));
-                let near_needle = to_needle[r] <= band3 + 3;
-                if in_peg(x, y) {
+                if blob.labels[k] == label {
                     wall_px += usize::from(self.bg.is_wall_core(k));
-                    wall_adjacent_px += usize::from(self.bg.is_near_wall(x, y, 2));
-                    let deep = blob.depth[k] >= 9 && !near_needle && to_needle[r] > 12;
+                    wall_adjacent_px += usize::from(self.bg.is_near_wall(k));
+                    let deep = blob.depth[k] >= 9 && !needle.beside(x, y);
                     occluded_px += usize::from(deep && dark[k] > occl_level);
-                } else if to_peg[r] > band3 || near_needle || blob.rest[k] || blob.needle[k] {
+                } else if !near_peg[r] || blob.rest[k] || blob.needle[k] || needle.near(x, y) {
                     continue;
                 }
-                sums.add(x, y, f64::from(dark[k] / contrast).clamp(-0.5, 1.5));
+                row.add(x, (dark[k] * inv_contrast).clamp(-0.5, 1.5));
             }
+            sums.add_row(&row);
         }
         let moments = sums.finish().map(|(area_um2, c_px, second)| Moments {
             area_um2,
