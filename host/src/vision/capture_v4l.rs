@@ -120,6 +120,8 @@ impl FrameSource for V4l2Source {
         } else {
             StampSource::EndOfFrame
         };
+        // time_t is 32 bits on some targets
+        #[allow(clippy::unnecessary_cast)]
         let (sec, usec) = (meta.timestamp.sec as i64, meta.timestamp.usec as i64);
         let t_capture_us = u64::try_from(sec * 1_000_000 + usec)
             .map_err(|_| camera(&self.device, "negative buffer timestamp"))?;

@@ -58,6 +58,19 @@ pub struct Component {
 /// order their first pixel appears in a row-major scan. Works on runs of set pixels joined
 /// with union–find, so a large blob costs one step per row, not per pixel.
 pub fn label_components(mask: &[bool], w: usize, h: usize, roi: Roi) -> (Vec<u32>, Vec<Component>) {
+    let mut labels = Vec::new();
+    let comps = label_components_into(mask, w, h, roi, &mut labels);
+    (labels, comps)
+}
+
+/// [`label_components`] into a reused label buffer (resized to `w × h` and cleared).
+pub fn label_components_into(
+    mask: &[bool],
+    w: usize,
+    h: usize,
+    roi: Roi,
+    labels: &mut Vec<u32>,
+) -> Vec<Component> {
     debug_assert!(roi.x1 <= w && roi.y1 <= h && mask.len() == w * h);
     // runs as (y, x0, x1), rows in order; row_start[j] indexes the first run of ROI row j
     let mut runs: Vec<(usize, usize, usize)> = Vec::new();
@@ -95,7 +108,8 @@ pub fn label_components(mask: &[bool], w: usize, h: usize, roi: Roi) -> (Vec<u32
             }
         }
     }
-    let mut labels = vec![0u32; w * h];
+    labels.clear();
+    labels.resize(w * h, 0);
     let mut comps: Vec<Component> = Vec::new();
     let mut label_of_root = vec![0u32; runs.len()];
     for (r, &(y, x0, x1)) in runs.iter().enumerate() {
@@ -116,7 +130,7 @@ pub fn label_components(mask: &[bool], w: usize, h: usize, roi: Roi) -> (Vec<u32
             y1: c.bbox.y1.max(y + 1),
         };
     }
-    (labels, comps)
+    comps
 }
 
 fn find(parent: &mut [usize], mut i: usize) -> usize {

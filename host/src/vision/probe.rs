@@ -5,7 +5,9 @@
 
 use crate::geom::Vec2;
 use crate::vision::background::Background;
-use crate::vision::morph::{Component, Roi, chamfer, dilate_square, label_components, mask_bounds};
+use crate::vision::morph::{
+    Component, Roi, chamfer, dilate_square, label_components_into, mask_bounds,
+};
 
 /// What the tracker knows about the probe.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -23,51 +25,57 @@ impl Default for ProbeSettings {
     }
 }
 
-/// The binary mask split into probe and the rest.
-#[derive(Debug, Clone)]
-pub(crate) struct Separation {
+/// Working images of the probe removal, reused from frame to frame.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ProbeBuffers {
     /// Needle pixels.
     pub(crate) needle: Vec<bool>,
     /// Chamfer distance (thirds of a pixel) from each mask pixel to the nearest non-mask one.
     pub(crate) depth: Vec<u16>,
-    /// Centre of the tip's rounded end, continuous pixel coordinates.
-    pub(crate) tip_px: Option<Vec2>,
+    thin: Vec<bool>,
+    labels: Vec<u32>,
 }
 
-/// Splits `mask` (`w × h`) into needle and rest, and locates the needle tip.
+fn reset<T: Copy>(v: &mut Vec<T>, n: usize, value: T) {
+    v.clear();
+    v.resize(n, value);
+}
+
+/// Splits `mask` (`w × h`) into needle (`buf.needle`) and rest, fills `buf.depth`, and
+/// returns the needle tip's centre (continuous pixel coordinates) if there is a needle.
 pub(crate) fn separate_probe(
     mask: &[bool],
     darkening: &[f32],
     bg: &Background,
     settings: &ProbeSettings,
     tip_radius_px: f64,
-) -> Separation {
+    buf: &mut ProbeBuffers,
+) -> Option<Vec2> {
     let (w, h) = (bg.width(), bg.height());
-    let mut depth = vec![0u16; w * h];
-    let Some(bounds) = mask_bounds(mask, w, h) else {
-        return Separation { needle: vec![false; w * h], depth, tip_px: None };
-    };
+    reset(&mut buf.depth, w * h, 0);
+    reset(&mut buf.needle, w * h, false);
+    reset(&mut buf.thin, w * h, false);
     // one pixel more: non-mask pixels around the blobs are the depth's sources, while the
     // image border is not (a peg cut by the border must not look thin there)
-    let roi = bounds.grown(1, w, h);
+    let roi = mask_bounds(mask, w, h)?.grown(1, w, h);
     let local = chamfer(roi, false, |x, y| !mask[y * w + x]);
     for (j, row) in local.chunks_exact(roi.width()).enumerate() {
         let k = (roi.y0 + j) * w + roi.x0;
-        depth[k..k + roi.width()].copy_from_slice(row);
+        buf.depth[k..k + roi.width()].copy_from_slice(row);
     }
     let r3 = (3.0 * settings.max_half_width_px).round() as u16;
+    let depth = &buf.depth;
     let to_core_local = chamfer(roi, false, |x, y| {
         let d = depth[y * w + x];
         d > r3 && d != u16::MAX
     });
-    let mut thin = vec![false; w * h];
     for (j, row) in to_core_local.chunks_exact(roi.width()).enumerate() {
         let k = (roi.y0 + j) * w + roi.x0;
         for (i, &d) in row.iter().enumerate() {
-            thin[k + i] = mask[k + i] && d > r3.saturating_add(1);
+            buf.thin[k + i] = mask[k + i] && d > r3.saturating_add(1);
         }
     }
-    let (labels, comps) = label_components(&thin, w, h, roi);
+    let comps = label_components_into(&buf.thin, w, h, roi, &mut buf.labels);
     // Corner slivers of the peg left by the opening are at most (1 − π/4) r² in area.
     let min_area = (0.5 * settings.max_half_width_px.powi(2)).max(12.0) as usize;
     let on_border =
@@ -77,33 +85,30 @@ pub(crate) fn separate_probe(
         .filter(|c| c.area >= min_area || (on_border(c) && c.area >= 12))
         .map(|c| c.label)
         .collect();
-    let mut needle = vec![false; w * h];
+    let labels = &buf.labels;
     for y in roi.y0..roi.y1 {
-        for k in y * w + roi.x0..y * w + roi.x1 {
-            needle[k] = labels[k] != 0 && needle_labels.contains(&labels[k]);
+        let span = y * w + roi.x0..y * w + roi.x1;
+        for (n, l) in buf.needle[span.clone()].iter_mut().zip(&labels[span]) {
+            *n = *l != 0 && needle_labels.contains(l);
         }
     }
-    let biggest = comps.iter().filter(|c| needle_labels.contains(&c.label)).max_by_key(|c| c.area);
-    let mut tip_px = None;
-    if let Some(c) = biggest {
-        let pixels: Vec<(usize, usize)> = (c.bbox.y0..c.bbox.y1)
-            .flat_map(|y| (c.bbox.x0..c.bbox.x1).map(move |x| (x, y)))
-            .filter(|&(x, y)| labels[y * w + x] == c.label)
-            .collect();
-        if let Some(shaft) = Shaft::find(&pixels, bg, tip_radius_px + 2.5) {
-            // What lies off the shaft is a corner sliver of the peg the tip touches: give it
-            // back, so the probe removal does not bite into the peg.
-            for &p in &pixels {
-                if !shaft.covers(&centre(p)) {
-                    needle[p.1 * w + p.0] = false;
-                }
-            }
-            let tip =
-                TipInput { pixels: &pixels, mask, needle: &needle, darkening, depth: &depth, bg };
-            tip_px = Some(refine_tip(&tip, &shaft, tip_radius_px));
+    let biggest =
+        comps.iter().filter(|c| needle_labels.contains(&c.label)).max_by_key(|c| c.area)?;
+    let c = biggest;
+    let pixels: Vec<(usize, usize)> = (c.bbox.y0..c.bbox.y1)
+        .flat_map(|y| (c.bbox.x0..c.bbox.x1).map(move |x| (x, y)))
+        .filter(|&(x, y)| labels[y * w + x] == c.label)
+        .collect();
+    let shaft = Shaft::find(&pixels, bg, tip_radius_px + 2.5)?;
+    // What lies off the shaft is a corner sliver of the peg the tip touches: give it back, so
+    // the probe removal does not bite into the peg.
+    for &p in &pixels {
+        if !shaft.covers(&centre(p)) {
+            buf.needle[p.1 * w + p.0] = false;
         }
     }
-    Separation { needle, depth, tip_px }
+    let tip = TipInput { pixels: &pixels, mask, needle: &buf.needle, darkening, depth, bg };
+    Some(refine_tip(&tip, &shaft, tip_radius_px))
 }
 
 /// Where the needle is near the peg: pixels within `band + 1` of it are left out of the band,

@@ -13,8 +13,8 @@ use crate::vision::assess::{
 use crate::vision::background::Background;
 use crate::vision::calib::Calibration;
 use crate::vision::moments::{MomentSums, Moments, polygon_moments};
-use crate::vision::morph::{Component, Roi, dilate_square, label_components, mask_bounds};
-use crate::vision::probe::{NeedleZone, ProbeSettings, separate_probe};
+use crate::vision::morph::{Component, Roi, dilate_square, label_components_into, mask_bounds};
+use crate::vision::probe::{NeedleZone, ProbeBuffers, ProbeSettings, separate_probe};
 use crate::vision::scene::paper_peg;
 use crate::vision::threshold::{Threshold, threshold_level};
 
@@ -72,8 +72,18 @@ pub struct Tracker {
     bg: Background,
     expected: Moments,
     body_axis_rad: f64,
-    dark: Vec<f32>,
+    buf: Buffers,
     prev: Option<Pose>,
+}
+
+/// Working images reused from frame to frame (a frame allocates nothing large).
+#[derive(Debug, Clone, Default)]
+struct Buffers {
+    dark: Vec<f32>,
+    mask: Vec<bool>,
+    rest: Vec<bool>,
+    labels: Vec<u32>,
+    probe: ProbeBuffers,
 }
 
 /// The pieces of one frame the peg's moments are computed from.
@@ -105,7 +115,7 @@ impl Tracker {
         let bg = Background::new(background)?;
         let expected = polygon_moments(&settings.peg);
         let body_axis_rad = expected.major_axis_angle();
-        Ok(Self { settings, bg, expected, body_axis_rad, dark: Vec::new(), prev: None })
+        Ok(Self { settings, bg, expected, body_axis_rad, buf: Buffers::default(), prev: None })
     }
 
     /// The settings in use.
@@ -148,56 +158,70 @@ impl Tracker {
         frame: &GrayImage,
         reference_rad: f64,
     ) -> Result<Measurement, Error> {
-        let mut dark = std::mem::take(&mut self.dark);
-        let res =
-            self.bg.darkening(frame, &mut dark).map(|()| self.measure_dark(&dark, reference_rad));
-        self.dark = dark;
+        let mut buf = std::mem::take(&mut self.buf);
+        let res = self
+            .bg
+            .darkening(frame, &mut buf.dark)
+            .map(|()| self.measure_dark(&mut buf, reference_rad));
+        self.buf = buf;
         res
     }
 
-    fn measure_dark(&self, dark: &[f32], reference_rad: f64) -> Measurement {
+    fn measure_dark(&self, buf: &mut Buffers, reference_rad: f64) -> Measurement {
         let (w, h) = (self.bg.width(), self.bg.height());
         let calib = &self.settings.calibration;
+        let dark = &buf.dark;
         let threshold = threshold_level(self.settings.threshold, dark);
-        let mask: Vec<bool> = dark.iter().map(|&d| d > threshold).collect();
+        buf.mask.clear();
+        buf.mask.extend(dark.iter().map(|&d| d > threshold));
         let tip_r_px = 0.5 * self.settings.probe.tip_diameter_um / calib.mean_um_per_px();
-        let sep = separate_probe(&mask, dark, &self.bg, &self.settings.probe, tip_r_px);
-        let probe_tip_um = sep.tip_px.map(|p| calib.px_to_um(&p));
-        let rest: Vec<bool> = mask.iter().zip(&sep.needle).map(|(&m, &n)| m && !n).collect();
-        let roi = mask_bounds(&rest, w, h).unwrap_or(Roi { x0: 0, y0: 0, x1: 0, y1: 0 });
-        let (labels, comps) = label_components(&rest, w, h, roi);
+        let probe = &self.settings.probe;
+        let tip_px = separate_probe(&buf.mask, dark, &self.bg, probe, tip_r_px, &mut buf.probe);
+        let probe_tip_um = tip_px.map(|p| calib.px_to_um(&p));
+        buf.rest.clear();
+        buf.rest.extend(buf.mask.iter().zip(&buf.probe.needle).map(|(&m, &n)| m && !n));
+        let roi = mask_bounds(&buf.rest, w, h).unwrap_or(Roi { x0: 0, y0: 0, x1: 0, y1: 0 });
+        let comps = label_components_into(&buf.rest, w, h, roi, &mut buf.labels);
         let px_area = calib.sx_um_per_px * calib.sy_um_per_px;
         let min_px = (0.25 * self.expected.area_um2 / px_area) as usize;
-        let none = |flags| Measurement {
-            pose: None,
-            probe_tip_um,
-            confidence: 0.0,
-            flags,
-            threshold,
-            area_um2: 0.0,
+        let peg = comps.iter().filter(|c| c.area >= min_px).max_by_key(|c| c.area);
+        let blob = peg.map(|peg| Blob {
+            peg,
+            labels: &buf.labels,
+            rest: &buf.rest,
+            needle: &buf.probe.needle,
+            depth: &buf.probe.depth,
+        });
+        let weighed = blob.map(|b| (b.peg.bbox, self.weigh(&b, dark)));
+        let Some((
+            bbox,
+            Weighed { moments: Some(moments), occluded_px, wall_px, wall_adjacent_px },
+        )) = weighed
+        else {
+            return Measurement {
+                pose: None,
+                probe_tip_um,
+                confidence: 0.0,
+                flags: vec![Flag::NoPeg],
+                threshold,
+                area_um2: 0.0,
+            };
         };
-        let Some(peg) = comps.iter().filter(|c| c.area >= min_px).max_by_key(|c| c.area) else {
-            return none(vec![Flag::NoPeg]);
-        };
-        let blob =
-            Blob { peg, labels: &labels, rest: &rest, needle: &sep.needle, depth: &sep.depth };
-        let weighed = self.weigh(&blob, dark);
-        let Some(moments) = weighed.moments else { return none(vec![Flag::NoPeg]) };
-        let s = &self.settings;
         let theta = nearest_branch(moments.major_axis_angle() - self.body_axis_rad, reference_rad);
         let pose = Pose::new(moments.centroid.x, moments.centroid.y, theta);
+        let s = &self.settings;
         let mut confidence =
             shape_confidence(&moments, &self.expected, s.area_tolerance, s.moment_tolerance);
         let mut flags = Vec::new();
-        if self.near_border(peg.bbox, &pose) {
+        if self.near_border(bbox, &pose) {
             flags.push(Flag::OutOfField);
         }
         // Flush against a wall is fine when the whole peg is seen; a wall hiding part of it
         // shows as a shape that is a little off (or the blob reaching into the wall).
-        if weighed.wall_px >= 3 || (weighed.wall_adjacent_px >= 3 && confidence < 0.9) {
+        if wall_px >= 3 || (wall_adjacent_px >= 3 && confidence < 0.9) {
             flags.push(Flag::Wall);
         }
-        if weighed.occluded_px >= 12 {
+        if occluded_px >= 12 {
             flags.push(Flag::ProbeOcclusion);
         }
         if confidence < s.min_confidence {
