@@ -79,25 +79,16 @@ impl MomentSums {
     /// Adds pixel `(i, j)` with weight `w` (its covered share).
     #[inline]
     pub fn add(&mut self, i: usize, j: usize, w: f64) {
-        let mut row = self.row(j);
-        row.add(i, w as f32);
-        self.add_row(&row);
+        self.add_row(j, i, [w, 0.0, 0.0]);
     }
 
-    /// An accumulator for the pixels of row `j` (cheaper per pixel; add it back with
-    /// [`MomentSums::add_row`]).
-    pub fn row(&self, j: usize) -> RowSums {
-        RowSums { j, s: [0.0; 3] }
-    }
-
-    /// Adds a row's sums.
-    pub fn add_row(&mut self, row: &RowSums) {
-        let [s0, s1, s2] = row.s;
-        // x = (i + 0.5 - ox) sx: expand Σw x, Σw x² from Σw, Σw i, Σw i²
-        let (a, sx) = (0.5 - self.origin.x, self.sx);
+    /// Adds row `j`'s sums `[Σw, Σw·c, Σw·c²]` over columns `i = col0 + c`.
+    pub fn add_row(&mut self, j: usize, col0: usize, [s0, s1, s2]: [f64; 3]) {
+        // x = (col0 + c + 0.5 − ox)·sx = (c + a)·sx: expand Σw·x and Σw·x²
+        let (a, sx) = (col0 as f64 + 0.5 - self.origin.x, self.sx);
         let sum_x = sx * (s1 + a * s0);
         let sum_xx = sx * sx * (s2 + 2.0 * a * s1 + a * a * s0);
-        let y = (row.j as f64 + 0.5 - self.origin.y) * self.sy;
+        let y = (j as f64 + 0.5 - self.origin.y) * self.sy;
         let m = &mut self.m;
         m[0] += s0;
         m[1] += sum_x;
@@ -105,6 +96,36 @@ impl MomentSums {
         m[3] += sum_xx;
         m[4] += y * y * s0;
         m[5] += y * sum_x;
+    }
+
+    /// Adds a row of weights starting at column `col0` (summed in 8 f32 lanes).
+    pub fn add_weights(&mut self, j: usize, col0: usize, weights: &[f32]) {
+        let (mut s0, mut s1, mut s2) = ([0f32; 8], [0f32; 8], [0f32; 8]);
+        let mut chunks = weights.chunks_exact(8);
+        let mut base = 0f32;
+        for chunk in &mut chunks {
+            for l in 0..8 {
+                let (w, c) = (chunk[l], base + l as f32);
+                s0[l] += w;
+                s1[l] += w * c;
+                s2[l] += w * c * c;
+            }
+            base += 8.0;
+        }
+        let mut sums = [0f64; 3];
+        for (l, &w) in chunks.remainder().iter().enumerate() {
+            let c = f64::from(base) + l as f64;
+            let w = f64::from(w);
+            sums[0] += w;
+            sums[1] += w * c;
+            sums[2] += w * c * c;
+        }
+        for l in 0..8 {
+            sums[0] += f64::from(s0[l]);
+            sums[1] += f64::from(s1[l]);
+            sums[2] += f64::from(s2[l]);
+        }
+        self.add_row(j, col0, sums);
     }
 
     /// The moments in continuous pixel coordinates scaled to µm (add the calibration origin
@@ -124,24 +145,6 @@ impl MomentSums {
     }
 }
 
-/// Per-row sums Σw, Σw·i, Σw·i² (pixel column `i`), in f64.
-#[derive(Debug, Clone, Copy)]
-pub struct RowSums {
-    j: usize,
-    s: [f64; 3],
-}
-
-impl RowSums {
-    /// Adds pixel column `i` with weight `w`.
-    #[inline]
-    pub fn add(&mut self, i: usize, w: f32) {
-        let (w, i) = (f64::from(w), i as f64);
-        self.s[0] += w;
-        self.s[1] += w * i;
-        self.s[2] += w * i * i;
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -158,6 +161,24 @@ mod tests {
         let mt = polygon_moments(&turned);
         assert!((mt.major_axis_angle() - 0.4).abs() < 1e-9);
         assert!((mt.centroid - Vec2::new(100.0, 50.0)).norm() < 1e-9);
+    }
+
+    #[test]
+    fn row_weights_sum_like_single_pixels() {
+        let weights: Vec<f32> = (0..21).map(|i| 0.1 * i as f32).collect();
+        let mut rows = MomentSums::new(Vec2::new(9.0, 4.0), 5.0, 5.5);
+        let mut single = rows;
+        rows.add_weights(3, 7, &weights);
+        for (c, &w) in weights.iter().enumerate() {
+            single.add(7 + c, 3, f64::from(w));
+        }
+        let (a, ca, sa) = rows.finish().unwrap();
+        let (b, cb, sb) = single.finish().unwrap();
+        assert!((a / b - 1.0).abs() < 1e-6 && (ca - cb).norm() < 1e-5, "{a} {b} {ca} {cb}");
+        assert!(
+            (sa.0 / sb.0 - 1.0).abs() < 1e-5 && (sa.2 - sb.2).abs() < 1e-3 * sa.0,
+            "{sa:?} {sb:?}"
+        );
     }
 
     #[test]
