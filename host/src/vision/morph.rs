@@ -3,7 +3,7 @@
 //! of interest, from which erosion, dilation and opening follow by thresholding.
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Roi {
     /// First column.
     pub x0: usize,

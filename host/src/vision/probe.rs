@@ -32,6 +32,8 @@ pub(crate) struct ProbeBuffers {
     pub(crate) needle: Vec<bool>,
     /// Chamfer distance (thirds of a pixel) from each mask pixel to the nearest non-mask one.
     pub(crate) depth: Vec<u16>,
+    /// Bounding box of the mask, grown by a pixel (empty when the mask is).
+    pub(crate) bounds: Roi,
     thin: Vec<bool>,
     labels: Vec<u32>,
 }
@@ -57,7 +59,9 @@ pub(crate) fn separate_probe(
     reset(&mut buf.thin, w * h, false);
     // one pixel more: non-mask pixels around the blobs are the depth's sources, while the
     // image border is not (a peg cut by the border must not look thin there)
+    buf.bounds = Roi::default();
     let roi = mask_bounds(mask, w, h)?.grown(1, w, h);
+    buf.bounds = roi;
     let local = chamfer(roi, false, |x, y| !mask[y * w + x]);
     for (j, row) in local.chunks_exact(roi.width()).enumerate() {
         let k = (roi.y0 + j) * w + roi.x0;

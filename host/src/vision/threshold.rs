@@ -32,12 +32,12 @@ pub fn threshold_level(t: Threshold, darkening: &[f32]) -> f32 {
     }
 }
 
-/// Otsu's threshold: maximises the between-class variance of the histogram (of every fourth
-/// value of a large image: plenty of samples at a quarter of the time).
+/// Otsu's threshold: maximises the between-class variance of the histogram (of every eighth
+/// value of a large image: still tens of thousands of samples, an eighth of the time).
 pub fn otsu(values: &[f32]) -> f32 {
     let mut hist = [0u32; BINS];
     let scale = BINS as f32 / (HI - LO);
-    let step = if values.len() >= 16_384 { 4 } else { 1 };
+    let step = if values.len() >= 65_536 { 8 } else { 1 };
     let mut total = 0.0f64;
     for &v in values.iter().step_by(step) {
         total += 1.0;

@@ -13,7 +13,7 @@ use crate::vision::assess::{
 use crate::vision::background::Background;
 use crate::vision::calib::Calibration;
 use crate::vision::moments::{MomentSums, Moments, polygon_moments};
-use crate::vision::morph::{Component, Roi, dilate_square, label_components_into, mask_bounds};
+use crate::vision::morph::{Component, Roi, dilate_square, label_components_into};
 use crate::vision::probe::{NeedleZone, ProbeBuffers, ProbeSettings, separate_probe};
 use crate::vision::scene::paper_peg;
 use crate::vision::threshold::{Threshold, threshold_level};
@@ -178,9 +178,17 @@ impl Tracker {
         let probe = &self.settings.probe;
         let tip_px = separate_probe(&buf.mask, dark, &self.bg, probe, tip_r_px, &mut buf.probe);
         let probe_tip_um = tip_px.map(|p| calib.px_to_um(&p));
+        // the rest lies within the mask's bounds (0 × 0 when the mask is empty)
+        let roi = buf.probe.bounds;
         buf.rest.clear();
-        buf.rest.extend(buf.mask.iter().zip(&buf.probe.needle).map(|(&m, &n)| m && !n));
-        let roi = mask_bounds(&buf.rest, w, h).unwrap_or(Roi { x0: 0, y0: 0, x1: 0, y1: 0 });
+        buf.rest.resize(w * h, false);
+        for y in roi.y0..roi.y1 {
+            let span = y * w + roi.x0..y * w + roi.x1;
+            let (m, n) = (&buf.mask[span.clone()], &buf.probe.needle[span.clone()]);
+            for ((r, &m), &n) in buf.rest[span].iter_mut().zip(m).zip(n) {
+                *r = m && !n;
+            }
+        }
         let comps = label_components_into(&buf.rest, w, h, roi, &mut buf.labels);
         let px_area = calib.sx_um_per_px * calib.sy_um_per_px;
         let min_px = (0.25 * self.expected.area_um2 / px_area) as usize;
