@@ -22,6 +22,7 @@ pub mod render;
 pub mod scene;
 pub mod threshold;
 pub mod track;
+pub(crate) mod weigh;
 
 pub use assess::{Flag, Measurement};
 pub use background::Background;

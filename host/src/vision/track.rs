@@ -6,17 +6,18 @@
 use image::GrayImage;
 
 use crate::Error;
-use crate::geom::{ConvexPolygon, Pose, Vec2};
+use crate::geom::{ConvexPolygon, Pose};
 use crate::vision::assess::{
     FLAGGED_CONFIDENCE_CAP, Flag, Measurement, is_jump, nearest_branch, shape_confidence,
 };
 use crate::vision::background::Background;
 use crate::vision::calib::Calibration;
-use crate::vision::moments::{MomentSums, Moments, polygon_moments};
-use crate::vision::morph::{Component, Roi, dilate_square, label_components_into};
-use crate::vision::probe::{NeedleZone, ProbeBuffers, ProbeSettings, separate_probe};
+use crate::vision::moments::{Moments, polygon_moments};
+use crate::vision::morph::{Roi, label_components_into};
+use crate::vision::probe::{ProbeBuffers, ProbeSettings, separate_probe};
 use crate::vision::scene::paper_peg;
 use crate::vision::threshold::{Threshold, threshold_level};
+use crate::vision::weigh::{Blob, Weighed, weigh};
 
 /// Tracker settings. Plain data; see `Default` for the documented values.
 #[derive(Debug, Clone, PartialEq)]
@@ -84,23 +85,6 @@ struct Buffers {
     rest: Vec<bool>,
     labels: Vec<u32>,
     probe: ProbeBuffers,
-}
-
-/// The pieces of one frame the peg's moments are computed from.
-struct Blob<'a> {
-    peg: &'a Component,
-    labels: &'a [u32],
-    rest: &'a [bool],
-    needle: &'a [bool],
-    depth: &'a [u16],
-}
-
-/// What the weighted pass over the peg found.
-struct Weighed {
-    moments: Option<Moments>,
-    occluded_px: usize,
-    wall_px: usize,
-    wall_adjacent_px: usize,
 }
 
 impl Tracker {
@@ -200,7 +184,8 @@ impl Tracker {
             needle: &buf.probe.needle,
             depth: &buf.probe.depth,
         });
-        let weighed = blob.map(|b| (b.peg.bbox, self.weigh(&b, dark)));
+        let weighed =
+            blob.map(|b| (b.peg.bbox, weigh(&b, dark, &self.bg, calib, self.settings.band_px)));
         let Some((
             bbox,
             Weighed { moments: Some(moments), occluded_px, wall_px, wall_adjacent_px },
@@ -259,80 +244,5 @@ impl Tracker {
             let p = calib.um_to_px(v);
             p.x < m || p.y < m || p.x > w as f64 - m || p.y > h as f64 - m
         })
-    }
-
-    /// Gray-level weighted moments of the peg: its thresholded pixels plus a band around them
-    /// (where partial coverage and blur put the edge), away from the needle and other blobs.
-    fn weigh(&self, blob: &Blob<'_>, dark: &[f32]) -> Weighed {
-        let (w, h) = (self.bg.width(), self.bg.height());
-        let calib = &self.settings.calibration;
-        let band = self.settings.band_px;
-        let roi = blob.peg.bbox.grown(band + 1, w, h);
-        let label = blob.peg.label;
-        let near_peg = dilate_square(roi, band, |x, y| blob.labels[y * w + x] == label);
-        let needle = NeedleZone::new(blob.needle, w, h, roi, band);
-        let contrast = self.interior_contrast(blob, dark, roi);
-        let occl_level = contrast + (0.5 * (1.0 - contrast)).max(0.1);
-        let origin = Vec2::new(0.5 * (roi.x0 + roi.x1) as f64, 0.5 * (roi.y0 + roi.y1) as f64);
-        let mut sums = MomentSums::new(origin, calib.sx_um_per_px, calib.sy_um_per_px);
-        let (mut occluded_px, mut wall_px, mut wall_adjacent_px) = (0, 0, 0);
-        let inv_contrast = 1.0 / contrast;
-        let mut weights = vec![0f32; roi.width()];
-        for y in roi.y0..roi.y1 {
-            for (i, wt) in weights.iter_mut().enumerate() {
-                let x = roi.x0 + i;
-                let (k, r) = (y * w + x, (y - roi.y0) * roi.width() + i);
-                *wt = 0.0;
-                if blob.labels[k] == label {
-                    wall_px += usize::from(self.bg.is_wall_core(k));
-                    wall_adjacent_px += usize::from(self.bg.is_near_wall(k));
-                    let deep = blob.depth[k] >= 9 && !needle.beside(x, y);
-                    occluded_px += usize::from(deep && dark[k] > occl_level);
-                } else if !near_peg[r] || blob.rest[k] || blob.needle[k] || needle.near(x, y) {
-                    continue;
-                }
-                *wt = (dark[k] * inv_contrast).clamp(-0.5, 1.5);
-            }
-            sums.add_weights(y, roi.x0, &weights);
-        }
-        let moments = sums.finish().map(|(area_um2, c_px, second)| Moments {
-            area_um2,
-            centroid: calib.px_to_um(&c_px),
-            second,
-        });
-        Weighed { moments, occluded_px, wall_px, wall_adjacent_px }
-    }
-
-    /// Median darkening of the peg's pixels at least 3 px inside its outline: the value a
-    /// fully covered pixel has, so edge pixels weigh by their covered share.
-    fn interior_contrast(&self, blob: &Blob<'_>, dark: &[f32], roi: Roi) -> f32 {
-        let w = self.bg.width();
-        let mut hist = [0u32; 512];
-        let mut n = 0u32;
-        let mut all = 0.0f64;
-        // every other pixel of every other row: plenty for a median, a quarter of the work
-        for y in (roi.y0..roi.y1).step_by(2) {
-            for x in (roi.x0..roi.x1).step_by(2) {
-                let k = y * w + x;
-                if blob.labels[k] == blob.peg.label {
-                    all += f64::from(dark[k]);
-                    if blob.depth[k] >= 9 {
-                        hist[((dark[k] * 340.0).clamp(0.0, 511.0)) as usize] += 1;
-                        n += 1;
-                    }
-                }
-            }
-        }
-        if n < 20 {
-            return ((all / (blob.peg.area as f64 / 4.0).max(1.0)) as f32).max(0.05);
-        }
-        let mut acc = 0;
-        for (i, c) in hist.iter().enumerate() {
-            acc += c;
-            if 2 * acc >= n {
-                return ((i as f32 + 0.5) / 340.0).max(0.05);
-            }
-        }
-        0.05
     }
 }
