@@ -201,27 +201,40 @@ pub fn dilate_square(roi: Roi, r: usize, is_set: impl Fn(usize, usize) -> bool) 
     out
 }
 
+/// Marks chamfer distances that no source reaches.
+pub const UNREACHABLE: u16 = u16::MAX - 8;
+
 /// Chamfer distance (3 per pixel step, 4 per diagonal) inside `roi` from every pixel to the
 /// nearest pixel where `is_source` holds. Pixels outside the ROI count as sources when
-/// `outside_is_source`, else as unreachable. Returns a ROI-sized row-major buffer; unreachable
-/// pixels hold `u16::MAX`.
+/// `outside_is_source`, else as unreachable. Returns a ROI-sized row-major buffer; pixels no
+/// source reaches hold [`UNREACHABLE`].
 pub fn chamfer(
     roi: Roi,
     outside_is_source: bool,
     is_source: impl Fn(usize, usize) -> bool,
 ) -> Vec<u16> {
+    chamfer_rows(roi, outside_is_source, |y, x0, row| {
+        for (i, v) in row.iter_mut().enumerate() {
+            *v = if is_source(x0 + i, y) { 0 } else { UNREACHABLE };
+        }
+    })
+}
+
+/// [`chamfer`] with the sources given a row at a time: `init(y, x0, row)` sets each pixel of
+/// image row `y` (from column `x0`) to 0 for a source, [`UNREACHABLE`] otherwise.
+pub fn chamfer_rows(
+    roi: Roi,
+    outside_is_source: bool,
+    mut init: impl FnMut(usize, usize, &mut [u16]),
+) -> Vec<u16> {
     let (w, h) = (roi.width(), roi.height());
-    // FAR + 4 cannot overflow, so the passes need no saturating arithmetic; real distances
-    // stay far below it (≤ 4 per pixel of an image at most 8192 wide).
-    const FAR: u16 = u16::MAX - 8;
+    // UNREACHABLE + 4 cannot overflow, so the passes need no saturating arithmetic; real
+    // distances stay far below it (≤ 4 per pixel of an image at most 8192 wide).
+    const FAR: u16 = UNREACHABLE;
     let edge = if outside_is_source { 0 } else { FAR };
     let mut d = vec![FAR; w * h];
     for j in 0..h {
-        for (i, v) in d[j * w..(j + 1) * w].iter_mut().enumerate() {
-            if is_source(roi.x0 + i, roi.y0 + j) {
-                *v = 0;
-            }
-        }
+        init(roi.y0 + j, roi.x0, &mut d[j * w..(j + 1) * w]);
     }
     if w == 0 {
         return d;
@@ -250,11 +263,6 @@ pub fn chamfer(
         for (v, t) in d[j * w..(j + 1) * w].iter_mut().zip(&tmp).rev() {
             *v = (*v).min(*t).min(right + 3);
             right = *v;
-        }
-    }
-    for v in &mut d {
-        if *v >= FAR {
-            *v = u16::MAX;
         }
     }
     d

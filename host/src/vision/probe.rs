@@ -6,7 +6,7 @@
 use crate::geom::Vec2;
 use crate::vision::background::Background;
 use crate::vision::morph::{
-    Component, Roi, chamfer, dilate_square, label_components_into, mask_bounds,
+    Component, Roi, UNREACHABLE, chamfer_rows, dilate_square, label_components_into, mask_bounds,
 };
 
 /// What the tracker knows about the probe.
@@ -62,21 +62,27 @@ pub(crate) fn separate_probe(
     buf.bounds = Roi::default();
     let roi = mask_bounds(mask, w, h)?.grown(1, w, h);
     buf.bounds = roi;
-    let local = chamfer(roi, false, |x, y| !mask[y * w + x]);
+    let local = chamfer_rows(roi, false, |y, x0, row| {
+        for (v, &m) in row.iter_mut().zip(&mask[y * w + x0..]) {
+            *v = if m { UNREACHABLE } else { 0 };
+        }
+    });
     for (j, row) in local.chunks_exact(roi.width()).enumerate() {
         let k = (roi.y0 + j) * w + roi.x0;
         buf.depth[k..k + roi.width()].copy_from_slice(row);
     }
     let r3 = (3.0 * settings.max_half_width_px).round() as u16;
     let depth = &buf.depth;
-    let to_core_local = chamfer(roi, false, |x, y| {
-        let d = depth[y * w + x];
-        d > r3 && d != u16::MAX
+    let to_core_local = chamfer_rows(roi, false, |y, x0, row| {
+        for (v, &d) in row.iter_mut().zip(&depth[y * w + x0..]) {
+            *v = if d > r3 && d != UNREACHABLE { 0 } else { UNREACHABLE };
+        }
     });
     for (j, row) in to_core_local.chunks_exact(roi.width()).enumerate() {
         let k = (roi.y0 + j) * w + roi.x0;
-        for (i, &d) in row.iter().enumerate() {
-            buf.thin[k + i] = mask[k + i] && d > r3.saturating_add(1);
+        let span = k..k + roi.width();
+        for ((t, &m), &d) in buf.thin[span.clone()].iter_mut().zip(&mask[span]).zip(row) {
+            *t = m & (d > r3.saturating_add(1));
         }
     }
     let comps = label_components_into(&buf.thin, w, h, roi, &mut buf.labels);
