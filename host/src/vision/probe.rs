@@ -57,34 +57,12 @@ pub(crate) fn separate_probe(
     reset(&mut buf.depth, w * h, 0);
     reset(&mut buf.needle, w * h, false);
     reset(&mut buf.thin, w * h, false);
+    buf.bounds = Roi::default();
     // one pixel more: non-mask pixels around the blobs are the depth's sources, while the
     // image border is not (a peg cut by the border must not look thin there)
-    buf.bounds = Roi::default();
     let roi = mask_bounds(mask, w, h)?.grown(1, w, h);
     buf.bounds = roi;
-    let local = chamfer_rows(roi, false, |y, x0, row| {
-        for (v, &m) in row.iter_mut().zip(&mask[y * w + x0..]) {
-            *v = if m { UNREACHABLE } else { 0 };
-        }
-    });
-    for (j, row) in local.chunks_exact(roi.width()).enumerate() {
-        let k = (roi.y0 + j) * w + roi.x0;
-        buf.depth[k..k + roi.width()].copy_from_slice(row);
-    }
-    let r3 = (3.0 * settings.max_half_width_px).round() as u16;
-    let depth = &buf.depth;
-    let to_core_local = chamfer_rows(roi, false, |y, x0, row| {
-        for (v, &d) in row.iter_mut().zip(&depth[y * w + x0..]) {
-            *v = if d > r3 && d != UNREACHABLE { 0 } else { UNREACHABLE };
-        }
-    });
-    for (j, row) in to_core_local.chunks_exact(roi.width()).enumerate() {
-        let k = (roi.y0 + j) * w + roi.x0;
-        let span = k..k + roi.width();
-        for ((t, &m), &d) in buf.thin[span.clone()].iter_mut().zip(&mask[span]).zip(row) {
-            *t = m & (d > r3.saturating_add(1));
-        }
-    }
+    open_away(mask, w, roi, settings, buf);
     let comps = label_components_into(&buf.thin, w, h, roi, &mut buf.labels);
     // Corner slivers of the peg left by the opening are at most (1 − π/4) r² in area.
     let min_area = (0.5 * settings.max_half_width_px.powi(2)).max(12.0) as usize;
@@ -117,6 +95,7 @@ pub(crate) fn separate_probe(
             buf.needle[p.1 * w + p.0] = false;
         }
     }
+    let depth = &buf.depth;
     let tip = TipInput { pixels: &pixels, mask, needle: &buf.needle, darkening, depth, bg };
     Some(refine_tip(&tip, &shaft, tip_radius_px))
 }
@@ -173,6 +152,35 @@ impl NeedleZone {
     /// Within `band + 4` px of a needle pixel.
     pub(crate) fn beside(&self, x: usize, y: usize) -> bool {
         self.index(x, y).is_some_and(|(i, z)| z.beside[i])
+    }
+}
+
+/// The opening by a disc of the needle's half-width, as two chamfer transforms: fills
+/// `buf.depth` (distance to the outside of the mask) and `buf.thin` (mask pixels the opening
+/// takes away) inside `roi`.
+fn open_away(mask: &[bool], w: usize, roi: Roi, settings: &ProbeSettings, buf: &mut ProbeBuffers) {
+    let local = chamfer_rows(roi, false, |y, x0, row| {
+        for (v, &m) in row.iter_mut().zip(&mask[y * w + x0..]) {
+            *v = if m { UNREACHABLE } else { 0 };
+        }
+    });
+    for (j, row) in local.chunks_exact(roi.width()).enumerate() {
+        let k = (roi.y0 + j) * w + roi.x0;
+        buf.depth[k..k + roi.width()].copy_from_slice(row);
+    }
+    let r3 = (3.0 * settings.max_half_width_px).round() as u16;
+    let depth = &buf.depth;
+    let to_core_local = chamfer_rows(roi, false, |y, x0, row| {
+        for (v, &d) in row.iter_mut().zip(&depth[y * w + x0..]) {
+            *v = if d > r3 && d != UNREACHABLE { 0 } else { UNREACHABLE };
+        }
+    });
+    for (j, row) in to_core_local.chunks_exact(roi.width()).enumerate() {
+        let k = (roi.y0 + j) * w + roi.x0;
+        let span = k..k + roi.width();
+        for ((t, &m), &d) in buf.thin[span.clone()].iter_mut().zip(&mask[span]).zip(row) {
+            *t = m & (d > r3.saturating_add(1));
+        }
     }
 }
 

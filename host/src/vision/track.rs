@@ -200,21 +200,35 @@ impl Tracker {
                 area_um2: 0.0,
             };
         };
+        let weighed = Weighed { moments: Some(moments), occluded_px, wall_px, wall_adjacent_px };
+        let (pose, confidence, flags) = self.judge(&moments, bbox, &weighed, reference_rad);
+        let area_um2 = moments.area_um2;
+        Measurement { pose: Some(pose), probe_tip_um, confidence, flags, threshold, area_um2 }
+    }
+
+    /// The pose from the moments, its confidence and its flags.
+    fn judge(
+        &self,
+        moments: &Moments,
+        bbox: Roi,
+        weighed: &Weighed,
+        reference_rad: f64,
+    ) -> (Pose, f64, Vec<Flag>) {
         let theta = nearest_branch(moments.major_axis_angle() - self.body_axis_rad, reference_rad);
         let pose = Pose::new(moments.centroid.x, moments.centroid.y, theta);
         let s = &self.settings;
         let mut confidence =
-            shape_confidence(&moments, &self.expected, s.area_tolerance, s.moment_tolerance);
+            shape_confidence(moments, &self.expected, s.area_tolerance, s.moment_tolerance);
         let mut flags = Vec::new();
         if self.near_border(bbox, &pose) {
             flags.push(Flag::OutOfField);
         }
         // Flush against a wall is fine when the whole peg is seen; a wall hiding part of it
         // shows as a shape that is a little off (or the blob reaching into the wall).
-        if wall_px >= 3 || (wall_adjacent_px >= 3 && confidence < 0.9) {
+        if weighed.wall_px >= 3 || (weighed.wall_adjacent_px >= 3 && confidence < 0.9) {
             flags.push(Flag::Wall);
         }
-        if occluded_px >= 12 {
+        if weighed.occluded_px >= 12 {
             flags.push(Flag::ProbeOcclusion);
         }
         if confidence < s.min_confidence {
@@ -226,8 +240,7 @@ impl Tracker {
         if !flags.is_empty() {
             confidence = confidence.min(FLAGGED_CONFIDENCE_CAP);
         }
-        let area_um2 = moments.area_um2;
-        Measurement { pose: Some(pose), probe_tip_um, confidence, flags, threshold, area_um2 }
+        (pose, confidence, flags)
     }
 
     /// Whether the blob reaches the image border, or the peg's outline placed at the measured
