@@ -3,7 +3,7 @@
 //! but much narrower than the peg takes away. The needle's far end is its tip, located to
 //! sub-pixel precision from the darkening mass near the end and the known tip diameter.
 
-use crate::geom::Vec2;
+use crate::geom::{ConvexPolygon, Vec2};
 use crate::vision::background::Background;
 use crate::vision::morph::{
     Component, Roi, UNREACHABLE, chamfer_rows, dilate_square, label_components_into, mask_bounds,
@@ -44,7 +44,8 @@ fn reset<T: Copy>(v: &mut Vec<T>, n: usize, value: T) {
 }
 
 /// Splits `mask` (`w × h`) into needle (`buf.needle`) and rest, fills `buf.depth`, and
-/// returns the needle tip's centre (continuous pixel coordinates) if there is a needle.
+/// returns the needle tip's centre (continuous pixel coordinates) and the unit direction of
+/// the shaft towards the tip, if there is a needle.
 pub(crate) fn separate_probe(
     mask: &[bool],
     darkening: &[f32],
@@ -52,7 +53,7 @@ pub(crate) fn separate_probe(
     settings: &ProbeSettings,
     tip_radius_px: f64,
     buf: &mut ProbeBuffers,
-) -> Option<Vec2> {
+) -> Option<(Vec2, Vec2)> {
     let (w, h) = (bg.width(), bg.height());
     reset(&mut buf.depth, w * h, 0);
     reset(&mut buf.needle, w * h, false);
@@ -97,7 +98,7 @@ pub(crate) fn separate_probe(
     }
     let depth = &buf.depth;
     let tip = TipInput { pixels: &pixels, mask, needle: &buf.needle, darkening, depth, bg };
-    Some(refine_tip(&tip, &shaft, tip_radius_px))
+    Some((refine_tip(&tip, &shaft, tip_radius_px), shaft.u))
 }
 
 /// Where the needle is near the peg: pixels within `band + 1` of it are left out of the band,
@@ -182,6 +183,35 @@ fn open_away(mask: &[bool], w: usize, roi: Roi, settings: &ProbeSettings, buf: &
             *t = m & (d > r3.saturating_add(1));
         }
     }
+}
+
+/// A tip that ends within `max_gap_um` of the peg's outline is taken as touching it: it is
+/// moved along the shaft until its rounded end just meets the outline. Where the tip touches
+/// the peg, the two blur into each other and the darkening mass the tip is located from is cut
+/// short by the peg's pixels, which leaves the estimate about a pixel back along the shaft; a
+/// gap smaller than a pixel cannot be seen anyway. Returns the tip unchanged otherwise.
+pub(crate) fn snap_to_contact(
+    tip_um: Vec2,
+    toward_tip: Vec2,
+    outline: &ConvexPolygon,
+    radius_um: f64,
+    max_gap_um: f64,
+) -> Vec2 {
+    let gap = |p: &Vec2| outline.signed_distance(p) - radius_um;
+    let g0 = gap(&tip_um);
+    if !(g0 > -radius_um && g0 < max_gap_um) {
+        return tip_um;
+    }
+    let mut p = tip_um;
+    for _ in 0..4 {
+        let g = gap(&p);
+        let slope = gap(&(p + toward_tip)) - g;
+        if slope > -0.2 {
+            return tip_um; // grazing the outline: no well-defined contact along the shaft
+        }
+        p -= toward_tip * (g / slope);
+    }
+    if (p - tip_um).norm() > max_gap_um + radius_um { tip_um } else { p }
 }
 
 struct TipInput<'a> {

@@ -6,7 +6,7 @@
 use image::GrayImage;
 
 use crate::Error;
-use crate::geom::{ConvexPolygon, Pose};
+use crate::geom::{ConvexPolygon, Pose, Vec2};
 use crate::vision::assess::{
     FLAGGED_CONFIDENCE_CAP, Flag, Measurement, is_jump, nearest_branch, shape_confidence,
 };
@@ -14,7 +14,7 @@ use crate::vision::background::Background;
 use crate::vision::calib::Calibration;
 use crate::vision::moments::{Moments, polygon_moments};
 use crate::vision::morph::{Roi, label_components_into};
-use crate::vision::probe::{ProbeBuffers, ProbeSettings, separate_probe};
+use crate::vision::probe::{ProbeBuffers, ProbeSettings, separate_probe, snap_to_contact};
 use crate::vision::scene::paper_peg;
 use crate::vision::threshold::{Threshold, threshold_level};
 use crate::vision::weigh::{Blob, Weighed, weigh};
@@ -160,8 +160,8 @@ impl Tracker {
         buf.mask.extend(dark.iter().map(|&d| d > threshold));
         let tip_r_px = 0.5 * self.settings.probe.tip_diameter_um / calib.mean_um_per_px();
         let probe = &self.settings.probe;
-        let tip_px = separate_probe(&buf.mask, dark, &self.bg, probe, tip_r_px, &mut buf.probe);
-        let probe_tip_um = tip_px.map(|p| calib.px_to_um(&p));
+        let tip = separate_probe(&buf.mask, dark, &self.bg, probe, tip_r_px, &mut buf.probe);
+        let probe_tip_um = tip.map(|(p, _)| calib.px_to_um(&p));
         // the rest lies within the mask's bounds (0 × 0 when the mask is empty)
         let roi = buf.probe.bounds;
         buf.rest.clear();
@@ -203,6 +203,16 @@ impl Tracker {
         let weighed = Weighed { moments: Some(moments), occluded_px, wall_px, wall_adjacent_px };
         let (pose, confidence, flags) = self.judge(&moments, bbox, &weighed, reference_rad);
         let area_um2 = moments.area_um2;
+        let probe_tip_um = match (tip, probe_tip_um) {
+            (Some((_, u)), Some(t)) if flags.is_empty() => {
+                let u_um =
+                    Vec2::new(u.x * calib.sx_um_per_px, u.y * calib.sy_um_per_px).normalize();
+                let outline = self.settings.peg.transformed(&pose);
+                let r_um = 0.5 * self.settings.probe.tip_diameter_um;
+                Some(snap_to_contact(t, u_um, &outline, r_um, calib.mean_um_per_px()))
+            }
+            _ => probe_tip_um,
+        };
         Measurement { pose: Some(pose), probe_tip_um, confidence, flags, threshold, area_um2 }
     }
 
