@@ -167,3 +167,21 @@ fn frames_of_another_size_are_refused() {
     let e = rig.tracker.measure(&image::GrayImage::new(320, 240)).unwrap_err();
     assert!(e.to_string().contains("320×240"), "{e}");
 }
+
+#[test]
+fn other_image_sizes_work_with_their_calibration() {
+    // the same field on an 800 × 600 sensor
+    let calib = Calibration::from_field(3370.0, 2520.0, 800, 600).unwrap();
+    let render =
+        RenderSettings { width_px: 800, height_px: 600, calibration: calib, ..Default::default() };
+    let track = TrackSettings { calibration: calib, ..TrackSettings::default() };
+    let mut rig = Rig::new(render, track);
+    let truth = Pose::new(1150.0, 1300.0, -0.4);
+    let needle = rig.renderer.settings().needle;
+    let edge = edge_facing_needle(&rig.peg, &truth, &needle);
+    let tip = probe_touching(&rig.peg, &truth, &needle, edge, 0.5);
+    let m = rig.measure(truth, Some(tip));
+    assert!(m.flags.is_empty(), "{m:?}");
+    assert!(position_error(&m, &truth) < 1.0, "{m:?}");
+    assert!((m.probe_tip_um.unwrap() - tip).norm() < 10.0, "{m:?}");
+}

@@ -12,16 +12,16 @@ use crate::vision::morph::{
 /// What the tracker knows about the probe.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProbeSettings {
-    /// Half-width of the widest part of the needle in view, px: the opening radius. Must stay
-    /// well below the peg's half-width (default 20 px ≈ 105 µm).
-    pub max_half_width_px: f64,
+    /// Half-width of the widest part of the needle in view, µm: the opening radius. Must stay
+    /// well below the peg's half-width (default 105 µm, 20 px at the paper's scale).
+    pub max_half_width_um: f64,
     /// Diameter of the probe's tip, µm (default 25).
     pub tip_diameter_um: f64,
 }
 
 impl Default for ProbeSettings {
     fn default() -> Self {
-        Self { max_half_width_px: 20.0, tip_diameter_um: 25.0 }
+        Self { max_half_width_um: 105.0, tip_diameter_um: 25.0 }
     }
 }
 
@@ -50,7 +50,7 @@ pub(crate) fn separate_probe(
     mask: &[bool],
     darkening: &[f32],
     bg: &Background,
-    settings: &ProbeSettings,
+    open_radius_px: f64,
     tip_radius_px: f64,
     buf: &mut ProbeBuffers,
 ) -> Option<(Vec2, Vec2)> {
@@ -63,10 +63,10 @@ pub(crate) fn separate_probe(
     // image border is not (a peg cut by the border must not look thin there)
     let roi = mask_bounds(mask, w, h)?.grown(1, w, h);
     buf.bounds = roi;
-    open_away(mask, w, roi, settings, buf);
+    open_away(mask, w, roi, open_radius_px, buf);
     let comps = label_components_into(&buf.thin, w, h, roi, &mut buf.labels);
     // Corner slivers of the peg left by the opening are at most (1 − π/4) r² in area.
-    let min_area = (0.5 * settings.max_half_width_px.powi(2)).max(12.0) as usize;
+    let min_area = (0.5 * open_radius_px.powi(2)).max(12.0) as usize;
     let on_border =
         |c: &Component| c.bbox.x0 == 0 || c.bbox.y0 == 0 || c.bbox.x1 == w || c.bbox.y1 == h;
     let needle_labels: Vec<u32> = comps
@@ -159,7 +159,7 @@ impl NeedleZone {
 /// The opening by a disc of the needle's half-width, as two chamfer transforms: fills
 /// `buf.depth` (distance to the outside of the mask) and `buf.thin` (mask pixels the opening
 /// takes away) inside `roi`.
-fn open_away(mask: &[bool], w: usize, roi: Roi, settings: &ProbeSettings, buf: &mut ProbeBuffers) {
+fn open_away(mask: &[bool], w: usize, roi: Roi, open_radius_px: f64, buf: &mut ProbeBuffers) {
     let local = chamfer_rows(roi, false, |y, x0, row| {
         for (v, &m) in row.iter_mut().zip(&mask[y * w + x0..]) {
             *v = if m { UNREACHABLE } else { 0 };
@@ -169,7 +169,7 @@ fn open_away(mask: &[bool], w: usize, roi: Roi, settings: &ProbeSettings, buf: &
         let k = (roi.y0 + j) * w + roi.x0;
         buf.depth[k..k + roi.width()].copy_from_slice(row);
     }
-    let r3 = (3.0 * settings.max_half_width_px).round() as u16;
+    let r3 = (3.0 * open_radius_px).round() as u16;
     let depth = &buf.depth;
     let to_core_local = chamfer_rows(roi, false, |y, x0, row| {
         for (v, &d) in row.iter_mut().zip(&depth[y * w + x0..]) {

@@ -90,8 +90,9 @@ struct Buffers {
 impl Tracker {
     /// A tracker for frames like `background` (the empty fixture, same size and lighting).
     pub fn new(background: &GrayImage, settings: TrackSettings) -> Result<Self, Error> {
-        if settings.probe.max_half_width_px < 1.0 || !settings.probe.max_half_width_px.is_finite() {
-            return Err(Error::invalid("probe max_half_width_px", "must be ≥ 1 px"));
+        let open_px = settings.probe.max_half_width_um / settings.calibration.mean_um_per_px();
+        if !(open_px >= 1.0 && open_px.is_finite()) {
+            return Err(Error::invalid("probe max_half_width_um", "must be at least a pixel"));
         }
         if !(settings.area_tolerance > 0.0 && settings.moment_tolerance > 0.0) {
             return Err(Error::invalid("track tolerances", "must be > 0"));
@@ -159,8 +160,8 @@ impl Tracker {
         buf.mask.clear();
         buf.mask.extend(dark.iter().map(|&d| d > threshold));
         let tip_r_px = 0.5 * self.settings.probe.tip_diameter_um / calib.mean_um_per_px();
-        let probe = &self.settings.probe;
-        let tip = separate_probe(&buf.mask, dark, &self.bg, probe, tip_r_px, &mut buf.probe);
+        let open_px = self.settings.probe.max_half_width_um / calib.mean_um_per_px();
+        let tip = separate_probe(&buf.mask, dark, &self.bg, open_px, tip_r_px, &mut buf.probe);
         let probe_tip_um = tip.map(|(p, _)| calib.px_to_um(&p));
         // the rest lies within the mask's bounds (0 × 0 when the mask is empty)
         let roi = buf.probe.bounds;
