@@ -47,6 +47,14 @@ pub enum Error {
     /// The simulated peg cannot follow the probe (wedged between probe and fixture).
     #[error("stuck: {0}")]
     Stuck(String),
+    /// A camera could not be opened, configured or read.
+    #[error("camera {device}: {message}")]
+    Camera {
+        /// The device (e.g. `/dev/video0`) or source name.
+        device: String,
+        /// What went wrong.
+        message: String,
+    },
     /// A polygon is not a valid convex polygon.
     #[error("polygon: {0}")]
     Polygon(#[from] crate::geom::PolygonError),

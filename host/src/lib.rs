@@ -10,5 +10,6 @@ pub mod lcp;
 pub mod plot;
 pub mod sim;
 pub mod units;
+pub mod vision;
 
 pub use error::Error;

@@ -2,7 +2,9 @@
 //! its flags, calls the library and prints.
 
 mod cmd_lcp;
+mod cmd_render;
 mod cmd_sim;
+mod cmd_track;
 
 use clap::{Parser, Subcommand};
 
@@ -20,6 +22,10 @@ enum Command {
     Sim(cmd_sim::SimArgs),
     /// Complementarity problems: solve LCP files with our solver.
     Lcp(cmd_lcp::LcpArgs),
+    /// Render a synthetic microscope sequence (PNG frames, frames.csv, truth.csv, bg.png).
+    Render(cmd_render::RenderArgs),
+    /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
+    Track(cmd_track::TrackArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -27,5 +33,7 @@ fn main() -> anyhow::Result<()> {
     match cli.command {
         Command::Sim(args) => cmd_sim::run(&args),
         Command::Lcp(args) => cmd_lcp::run(args),
+        Command::Render(args) => cmd_render::run(&args),
+        Command::Track(args) => cmd_track::run(&args),
     }
 }
