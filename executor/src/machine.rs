@@ -33,6 +33,10 @@ use mesopush_protocol::ctrl::{CtrlStatus, PositionReport};
 use mesopush_protocol::host::{ExecState, ExecStatus, TrialEvent, TrialEventKind, TrialFault};
 use mesopush_protocol::{ExecToCtrl, ExecToHost};
 
+/// Position reports kept for stamping frames (at the controller's 100 Hz, 160 ms: a frame
+/// may arrive that long after its exposure and still be interpolated).
+pub const POSITION_HISTORY: usize = 16;
+
 /// The executor core: plan memory `CAP` bytes (×2: the stored plan and an upload's staging
 /// buffer), look-ahead queue `LA` segments, plan store `S`.
 #[derive(Debug)]
@@ -52,7 +56,7 @@ pub struct Executor<S, const CAP: usize, const LA: usize> {
     ctrl_last_heard_us: Option<u64>,
     host_last_heard_us: Option<u64>,
     ctrl_status: Option<CtrlStatus>,
-    positions: [Option<PositionReport>; 2],
+    positions: heapless::Deque<PositionReport, POSITION_HISTORY>,
     next_heartbeat_us: u64,
     next_segment_id: u32,
     last_now_us: u64,
@@ -84,7 +88,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             ctrl_last_heard_us: None,
             host_last_heard_us: None,
             ctrl_status: None,
-            positions: [None, None],
+            positions: heapless::Deque::new(),
             next_heartbeat_us: 0,
             next_segment_id: 1,
             last_now_us: 0,
@@ -109,6 +113,16 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
     /// The plan store.
     pub fn store(&self) -> &S {
         &self.store
+    }
+
+    /// The plan store, mutably (for a shell's maintenance, and tests).
+    pub fn store_mut(&mut self) -> &mut S {
+        &mut self.store
+    }
+
+    /// The latest controller position report.
+    pub fn latest_position(&self) -> Option<PositionReport> {
+        self.positions.back().copied()
     }
 
     /// Clock sync with the controller.

@@ -34,7 +34,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
                 if report.code == FaultCode::Reboot {
                     // Its clock and queue restarted: nothing we knew about it holds.
                     self.sync.reset();
-                    self.positions = [None, None];
+                    self.positions.clear();
                     self.ctrl_status = None;
                 }
                 if let Some(status) = self.ctrl_status.as_mut() {
@@ -53,10 +53,13 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
         report: PositionReport,
         out: &mut Outputs<N>,
     ) {
-        if self.positions[1].is_some_and(|last| report.ctrl_time_us <= last.ctrl_time_us) {
+        if self.latest_position().is_some_and(|last| report.ctrl_time_us <= last.ctrl_time_us) {
             return; // stale or duplicate
         }
-        self.positions = [self.positions[1], Some(report)];
+        if self.positions.is_full() {
+            self.positions.pop_front();
+        }
+        let _ = self.positions.push_back(report); // room made above
         if self.state == ExecState::Running {
             let telemetry = ProbeTelemetry {
                 exec_time_us: now_us,
@@ -87,11 +90,13 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
     /// around it, else the commanded schedule after the latest report while running, else
     /// the latest report.
     fn probe_at(&self, exec_time_us: u64) -> (PositionSource, (i32, i32)) {
-        let Some(last) = self.positions[1] else { return (PositionSource::Unknown, (0, 0)) };
+        let Some(last) = self.latest_position() else {
+            return (PositionSource::Unknown, (0, 0));
+        };
         let latest = (PositionSource::LatestReport, (last.x_nm, last.y_nm));
         let Some(t) = self.sync.to_ctrl_us(exec_time_us) else { return latest };
-        if let Some(prev) =
-            self.positions[0].filter(|p| p.ctrl_time_us <= t && t <= last.ctrl_time_us)
+        let mut pairs = self.positions.iter().zip(self.positions.iter().skip(1));
+        if let Some((prev, last)) = pairs.find(|(a, b)| a.ctrl_time_us <= t && t <= b.ctrl_time_us)
         {
             let span = last.ctrl_time_us - prev.ctrl_time_us;
             let from = (i64::from(prev.x_nm), i64::from(prev.y_nm));

@@ -161,7 +161,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             return self.plan_mismatch(out);
         };
         let clock_synced = self.sync.is_synced(now_us, &self.config);
-        let position = self.positions[1];
+        let position = self.latest_position();
         let ctrl_ready = self
             .ctrl_status
             .is_some_and(|s| !matches!(s.state, mesopush_protocol::ctrl::CtrlState::Faulted));
@@ -191,11 +191,11 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             return self.plan_mismatch(out);
         };
         let (Some(report), Some(now_ctrl_us), Some(status)) =
-            (self.positions[1], self.sync.to_ctrl_us(now_us), self.ctrl_status)
+            (self.latest_position(), self.sync.to_ctrl_us(now_us), self.ctrl_status)
         else {
             let reason = CommandRejectReason::NotReady {
                 clock_synced: self.sync.is_synced(now_us, &self.config),
-                position_known: self.positions[1].is_some(),
+                position_known: self.latest_position().is_some(),
             };
             return reject(out, reason);
         };
