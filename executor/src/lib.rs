@@ -18,6 +18,7 @@ extern crate std;
 pub mod camera;
 pub mod clock;
 pub mod config;
+pub mod endpoint;
 pub mod error;
 pub mod flash;
 pub mod io;
