@@ -48,7 +48,11 @@ pub struct ExecutorConfig {
     /// Default 2 ms.
     pub underrun_margin_us: u64,
     /// Most segments the executor keeps in flight (sent, not reported done); also capped by
-    /// the look-ahead queue's capacity and the controller's reported free slots. Default 8.
+    /// the look-ahead queue's capacity and the controller's reported free slots. Default 16
+    /// (160 ms at 100 Hz): in the seeded full-loop simulation with 2 % of frames dropped,
+    /// 2 % corrupted, 2 % duplicated and 2 % delayed on every line, 8 let the stream run dry
+    /// (a safe `StreamUnderrun` stop) in 2 of 40 runs, while go-back-N recovered a lost
+    /// window; 16 in none.
     pub lookahead_segments: u16,
     /// Controller silent (no valid message) this long while armed or running → stop, µs.
     /// Default 100 ms.
@@ -81,7 +85,7 @@ impl ExecutorConfig {
         setpoint_rate_hz: 100,
         start_lead_us: 50_000,
         underrun_margin_us: 2_000,
-        lookahead_segments: 8,
+        lookahead_segments: 16,
         ctrl_silence_us: 100_000,
         host_silence_us: 1_000_000,
         heartbeat_interval_us: 20_000,

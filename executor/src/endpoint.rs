@@ -15,8 +15,8 @@ use crate::store::PlanStore;
 use crate::{CameraFrame, ExecError};
 use heapless::Deque;
 use mesopush_protocol::{
-    CtrlToExec, ExecToCtrl, ExecToHost, FRAME_BUF_LEN, FrameReader, HostToExec, Link,
-    LinkConfig, encode_frame,
+    CtrlToExec, ExecToCtrl, ExecToHost, FRAME_BUF_LEN, FrameReader, HostToExec, Link, LinkConfig,
+    encode_frame,
 };
 
 /// Room for outputs of one core call.

@@ -27,7 +27,7 @@ fn fault(rig: &Rig) -> TrialFault {
 
 #[test]
 fn silent_controller_is_stopped_within_the_bound() {
-    // The silence bound (30 ms) is shorter than the look-ahead (8 × 10 ms), so the watchdog,
+    // The silence bound (30 ms) is shorter than the look-ahead (16 × 10 ms), so the watchdog,
     // not a stream underrun, catches it.
     let config = ExecutorConfig { ctrl_silence_us: 30_000, ..ExecutorConfig::DEFAULT };
     let mut rig = running(config);

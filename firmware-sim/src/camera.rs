@@ -18,10 +18,11 @@ pub struct SimFrame<F> {
     pub image: Option<F>,
 }
 
-/// A camera at a fixed frame period.
+/// A camera at a fixed frame period; a frame is delivered `readout_us` after its exposure.
 #[derive(Debug)]
 pub struct SimCamera {
     period_us: u64,
+    readout_us: u64,
     next_us: u64,
     seq: u32,
     rng: SimRng,
@@ -36,23 +37,32 @@ pub struct SimCamera {
 
 impl SimCamera {
     /// A camera with its first exposure at `start_us`, then every `period_us` (30 Hz:
-    /// 33_333).
-    pub fn new(period_us: u64, start_us: u64, rng: SimRng, faults: FaultConfig) -> Self {
+    /// 33_333), each frame delivered `readout_us` after its exposure.
+    pub fn new(
+        period_us: u64,
+        readout_us: u64,
+        start_us: u64,
+        rng: SimRng,
+        faults: FaultConfig,
+    ) -> Self {
+        let (delivered, dropped, black) = (0, 0, 0);
         Self {
             period_us,
+            readout_us,
             next_us: start_us,
             seq: 0,
             rng,
             faults,
-            delivered: 0,
-            dropped: 0,
-            black: 0,
+            delivered,
+            dropped,
+            black,
         }
     }
 
-    /// The frame exposed by `now_us`, if one is due and not dropped.
+    /// The frame delivered by `now_us`, if one is due and not dropped. The world renders it
+    /// at delivery (the exposure time is in the frame).
     pub fn poll<W: World>(&mut self, now_us: u64, world: &mut W) -> Option<SimFrame<W::Frame>> {
-        if now_us < self.next_us {
+        if now_us < self.next_us + self.readout_us {
             return None;
         }
         let exposure_sim_us = self.next_us;

@@ -2,8 +2,10 @@
 //!
 //! Frames (encoded, delimiter included) are put on the line whole; each one may be lost,
 //! have one bit flipped, be duplicated or be held back by an extra delay, with the rates of
-//! [`FaultConfig`], then arrives after the base latency plus jitter. Delivery is in arrival
-//! time order (ties by send order), so delayed frames overtake nothing but are overtaken.
+//! [`FaultConfig`], then arrives after the base latency plus jitter. As on a real serial
+//! line, delivery is first in, first out: a frame never arrives before one sent earlier, so
+//! a delayed frame holds back the frames behind it (a line stall), and jitter never
+//! reorders.
 //! Every injected fault is counted and, when a log is attached, recorded.
 
 use crate::config::FaultConfig;
@@ -46,6 +48,7 @@ pub struct SimLine {
     faults: FaultConfig,
     in_flight: BinaryHeap<Reverse<(u64, u64, Vec<u8>)>>,
     counter: u64,
+    last_arrival_us: u64,
     stats: LineStats,
     /// Faults injected, with the send time, in order.
     pub log: Vec<(u64, LineFault)>,
@@ -59,6 +62,7 @@ impl SimLine {
             faults,
             in_flight: BinaryHeap::new(),
             counter: 0,
+            last_arrival_us: 0,
             stats: LineStats::default(),
             log: Vec::new(),
         }
@@ -99,6 +103,8 @@ impl SimLine {
                 self.stats.delayed += 1;
                 self.log.push((now_us, LineFault::Delayed));
             }
+            at_us = at_us.max(self.last_arrival_us); // FIFO
+            self.last_arrival_us = at_us;
             self.counter += 1;
             self.in_flight.push(Reverse((at_us, self.counter, bytes)));
         }
@@ -133,6 +139,23 @@ mod tests {
         assert_eq!(line.recv(200).as_deref(), Some(&b"ab\0"[..]));
         assert_eq!(line.recv(205), None);
         assert_eq!(line.recv(210).as_deref(), Some(&b"cd\0"[..]));
+    }
+
+    #[test]
+    fn delays_and_jitter_never_reorder() {
+        let faults = FaultConfig { link_delay: 0.3, link_jitter_us: 500, ..FaultConfig::NONE };
+        let mut line = SimLine::new(SimRng::new(3), faults);
+        for i in 0..200u8 {
+            line.send(u64::from(i) * 10, &[i, 0]);
+        }
+        let mut got = Vec::new();
+        for t in 0..100_000 {
+            while let Some(b) = line.recv(t) {
+                got.push(b[0]);
+            }
+        }
+        assert_eq!(got, (0..200).collect::<Vec<u8>>());
+        assert!(line.stats().delayed > 30);
     }
 
     #[test]
