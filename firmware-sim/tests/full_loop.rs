@@ -167,7 +167,7 @@ fn injected_stage_faults_come_from_the_seed() {
 }
 
 fn run_log(seed: u64) -> String {
-    let faults = FaultConfig { stall_per_s: 0.2, ..faulty() };
+    let faults = FaultConfig { stall_per_s: 0.2, reboot_per_s: 0.3, ..faulty() };
     let mut bench = Bench::new(seed, faults, plan());
     bench.run(10_000_000);
     let mut text = format!("{:?}\n", bench.node.events);
