@@ -60,16 +60,22 @@ pub struct Executor<S, const CAP: usize, const LA: usize> {
     next_heartbeat_us: u64,
     next_segment_id: u32,
     last_now_us: u64,
+    startup_issue: Option<crate::io::Refusal>,
 }
 
 impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
     /// Start-up: validates `config` and loads the stored plan, if any (state `PlanFlashed`).
-    /// A stored plan that no longer verifies or passes the safety check is ignored.
+    /// A stored plan that cannot be read, no longer verifies or fails the safety check of
+    /// this configuration is not used; [`Self::startup_issue`] says why.
     pub fn new(config: ExecutorConfig, mut store: S) -> Result<Self, ExecError> {
         config.validate()?;
-        let plan = match load_plan::<CAP>(&mut store) {
-            Ok(Some(plan)) if crate::safety::check_plan(&plan, &config).is_ok() => Some(plan),
-            Ok(_) | Err(_) => None,
+        let (plan, startup_issue) = match load_plan::<CAP>(&mut store) {
+            Ok(Some(plan)) => match crate::safety::check_plan(&plan, &config) {
+                Ok(()) => (Some(plan), None),
+                Err(v) => (None, Some(crate::io::Refusal::Safety(v))),
+            },
+            Ok(None) => (None, None),
+            Err(e) => (None, Some(crate::io::Refusal::Store(e))),
         };
         let state = if plan.is_some() { ExecState::PlanFlashed } else { ExecState::Idle };
         Ok(Self {
@@ -92,7 +98,13 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             next_heartbeat_us: 0,
             next_segment_id: 1,
             last_now_us: 0,
+            startup_issue,
         })
+    }
+
+    /// Why the stored plan was not loaded at start-up, if it was not.
+    pub fn startup_issue(&self) -> Option<crate::io::Refusal> {
+        self.startup_issue
     }
 
     /// Life-cycle state.

@@ -230,3 +230,19 @@ fn a_stored_plan_survives_a_restart() {
     assert_eq!(rig.exec.state(), ExecState::PlanFlashed);
     assert_eq!(rig.exec.plan().map(|p| (p.plan_id(), p.step_count())), Some((11, 5)));
 }
+
+#[test]
+fn a_stored_plan_that_became_unsafe_is_not_loaded_and_says_why() {
+    let mut store = MemStore::<CAP>::new();
+    let fast = [PlanStep { dx_nm: 10_000, dy_nm: 0, speed_nm_s: 900_000 }];
+    let img = image(&fast);
+    let header = FlashHeader::for_image(11, &img).unwrap();
+    mesopush_executor::PlanStore::save(&mut store, &header, &img).unwrap();
+    let config = ExecutorConfig { max_speed_nm_s: 500_000, ..ExecutorConfig::DEFAULT };
+    let rig = Rig::with_store(config, store);
+    assert_eq!(rig.exec.state(), ExecState::Idle);
+    assert!(rig.exec.plan().is_none());
+    let v =
+        SafetyViolation::SpeedTooHigh { step_index: 0, speed_nm_s: 900_000, limit_nm_s: 500_000 };
+    assert_eq!(rig.exec.startup_issue(), Some(Refusal::Safety(v)));
+}
