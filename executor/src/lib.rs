@@ -25,6 +25,8 @@ pub mod io;
 pub mod machine;
 pub mod plan;
 pub mod safety;
+#[cfg(feature = "std")]
+pub mod shell;
 pub mod store;
 pub mod stream;
 pub mod sync;
