@@ -51,8 +51,8 @@ pub struct Streamer<const LA: usize> {
     first_segment_id: u32,
     cursor: Cursor,
     prev_setpoint_nm: (i64, i64),
-    next: Option<(MoveSegment, u32)>,
-    inflight: Deque<(MoveSegment, u32), LA>,
+    next: Option<(MoveSegment, u32, u64)>,
+    inflight: Deque<(MoveSegment, u32, u64), LA>,
     done_base_nm: (i64, i64),
     ctrl_capacity: u16,
 }
@@ -110,7 +110,7 @@ impl<const LA: usize> Streamer<LA> {
     /// Step of the next segment to send (the plan's step count once all are sent).
     pub fn step_index(&self) -> u32 {
         match &self.next {
-            Some((_, step)) => *step,
+            Some((_, step, _)) => *step,
             None => self.cursor.step_index,
         }
     }
@@ -130,7 +130,7 @@ impl<const LA: usize> Streamer<LA> {
         if self.next.is_none() && self.next_k <= self.segment_count {
             self.next = Some(self.generate(plan));
         }
-        let Some((segment, step_index)) = self.next else {
+        let Some((segment, step_index, _)) = self.next else {
             return if self.inflight.is_empty() { StreamPoll::Finished } else { StreamPoll::Wait };
         };
         if segment.start_ctrl_time_us <= now_ctrl_us.saturating_add(config.underrun_margin_us) {
@@ -158,7 +158,7 @@ impl<const LA: usize> Streamer<LA> {
         self.ctrl_capacity = capacity;
         let Some(done) = last_done_segment_id else { return };
         let done_rel = done.wrapping_sub(self.first_segment_id);
-        while let Some((front, _)) = self.inflight.front() {
+        while let Some((front, _, _)) = self.inflight.front() {
             let rel = front.segment_id.wrapping_sub(self.first_segment_id);
             if rel > done_rel {
                 break;
@@ -172,22 +172,22 @@ impl<const LA: usize> Streamer<LA> {
     /// `None` outside it.
     pub fn commanded_at(&self, ctrl_time_us: u64) -> Option<(i64, i64)> {
         let mut from = self.done_base_nm;
-        for (seg, _) in self.inflight.iter() {
+        for (seg, _, dur_us) in self.inflight.iter() {
             let to = (i64::from(seg.target_x_nm), i64::from(seg.target_y_nm));
-            let end = seg.start_ctrl_time_us + self.period_us;
+            let end = seg.start_ctrl_time_us + dur_us;
             if ctrl_time_us < seg.start_ctrl_time_us {
                 return Some(from);
             }
             if ctrl_time_us <= end {
                 let num = ctrl_time_us - seg.start_ctrl_time_us;
-                return Some(lerp_nm(from, to, num, self.period_us));
+                return Some(lerp_nm(from, to, num, *dur_us));
             }
             from = to;
         }
         None
     }
 
-    fn generate<const CAP: usize>(&mut self, plan: &Plan<CAP>) -> (MoveSegment, u32) {
+    fn generate<const CAP: usize>(&mut self, plan: &Plan<CAP>) -> (MoveSegment, u32, u64) {
         let k = self.next_k;
         self.next_k += 1;
         let start_rel = (k - 1) * self.period_us;
@@ -205,7 +205,7 @@ impl<const LA: usize> Streamer<LA> {
             target_y_nm: target.1 as i32,
             speed_nm_s: speed,
         };
-        (segment, step_index)
+        (segment, step_index, dur)
     }
 
     /// Path position `rel_us` after the start; advances the cursor (times never decrease).
@@ -232,5 +232,62 @@ impl<const LA: usize> Streamer<LA> {
             c.step_start_nm = end_nm;
             c.geometry = plan.step(c.step_index).map(|s| StepGeometry::of(&s));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mesopush_protocol::flash::{FlashHeader, PlanStep};
+
+    fn plan(steps: &[PlanStep]) -> Plan<120> {
+        let mut image = heapless::Vec::<u8, 120>::new();
+        for s in steps {
+            image.extend_from_slice(&s.to_image_bytes()).unwrap();
+        }
+        let header = FlashHeader::for_image(1, &image).unwrap();
+        Plan::from_verified(header, image).unwrap()
+    }
+
+    /// 2.1 µm at 140 µm/s = 15 ms: a 10 ms segment and a 5 ms one; the schedule
+    /// interpolates the short one over its own duration.
+    #[test]
+    fn last_segment_is_short_and_interpolated_over_its_duration() {
+        let plan = plan(&[PlanStep { dx_nm: 2_100, dy_nm: 0, speed_nm_s: 140_000 }]);
+        let config = ExecutorConfig::DEFAULT;
+        let mut s: Streamer<4> = Streamer::new(&plan, &config, (0, 0), 100_000, 7, 32);
+        assert_eq!(s.segment_count(), 2);
+        let mut sent = [None; 2];
+        for slot in &mut sent {
+            let StreamPoll::Send(seg) = s.poll(&plan, &config, 50_000) else { panic!() };
+            *slot = Some(seg);
+            s.sent();
+        }
+        assert_eq!(s.poll(&plan, &config, 50_000), StreamPoll::Wait);
+        let [a, b] = sent.map(Option::unwrap);
+        assert_eq!(
+            (a.segment_id, a.start_ctrl_time_us, a.target_x_nm, a.speed_nm_s),
+            (7, 100_000, 1_400, 140_000)
+        );
+        assert_eq!(
+            (b.segment_id, b.start_ctrl_time_us, b.target_x_nm, b.speed_nm_s),
+            (8, 110_000, 2_100, 140_000)
+        );
+        assert_eq!(s.commanded_at(112_500), Some((1_750, 0)));
+        assert_eq!(s.commanded_at(200_000), None);
+        s.on_status(Some(8), 32);
+        assert_eq!(s.poll(&plan, &config, 120_000), StreamPoll::Finished);
+    }
+
+    #[test]
+    fn unsent_segment_near_its_start_is_an_underrun() {
+        let plan = plan(&[PlanStep { dx_nm: 14_000, dy_nm: 0, speed_nm_s: 140_000 }]);
+        let config = ExecutorConfig::DEFAULT;
+        let mut s: Streamer<4> = Streamer::new(&plan, &config, (0, 0), 100_000, 1, 1);
+        assert!(matches!(s.poll(&plan, &config, 0), StreamPoll::Send(_)));
+        s.sent();
+        // Capacity 1 and no status: segment 2 (start 110 ms) cannot go.
+        assert_eq!(s.poll(&plan, &config, 100_000), StreamPoll::Wait);
+        assert_eq!(s.poll(&plan, &config, 108_000), StreamPoll::Underrun { step_index: 0 });
     }
 }
