@@ -11,8 +11,8 @@
 //!
 //! Every command not valid in the current state is answered with
 //! `CommandRejected(WrongState { state })`; commands before a compatible `Hello` with
-//! `Incompatible`. Host commands are handled in [`host`], controller messages and camera
-//! frames in [`ctrl`]; this module holds the state, the timers (heartbeats, clock-sync
+//! `Incompatible`. Host commands are handled in `machine/host.rs`, controller messages and camera
+//! frames in `machine/ctrl.rs`; this module holds the state, the timers (heartbeats, clock-sync
 //! queries, watchdogs, streaming) and the fault path. Watchdog bound: a silent controller or
 //! host is detected at the first call after `ctrl_silence_us` / `host_silence_us`;
 //! [`Executor::next_deadline_us`] says when that is, so a shell that wakes then commands the

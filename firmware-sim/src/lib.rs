@@ -5,7 +5,7 @@
 //!   replies, stop, fault codes.
 //! - [`node`]: the controller on the wire (reliable link, framing), with its own drifting
 //!   clock and injected stage faults and reboots.
-//! - [`line`]: a simulated serial line with seeded drop/corrupt/duplicate/delay faults;
+//! - [`line`](mod@line): a simulated serial line with seeded drop/corrupt/duplicate/delay faults;
 //!   [`camera`]: a frame source with drops and black frames; [`world`]: the [`World`]
 //!   trait the host implements with its simulator and renderer.
 //! - [`config`]: plain-data [`CtrlConfig`] and [`FaultConfig`]; [`rng`]: the one seeded
