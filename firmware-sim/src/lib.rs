@@ -1,3 +1,31 @@
 //! The simulated motion controller and physical world (stage, peg, camera).
 //!
-//! Not built yet (issue 5); this crate exists so the workspace has its final shape.
+//! - [`controller`]: the firmware as a sans-IO state machine in controller time: bounded
+//!   segment queue, [`stage`] dynamics, position/status/heartbeat reports, clock-sync
+//!   replies, stop, fault codes.
+//! - [`node`]: the controller on the wire (reliable link, framing), with its own drifting
+//!   clock and injected stage faults and reboots.
+//! - [`line`](mod@line): a simulated serial line with seeded drop/corrupt/duplicate/delay faults;
+//!   [`camera`]: a frame source with drops and black frames; [`world`]: the [`World`]
+//!   trait the host implements with its simulator and renderer.
+//! - [`config`]: plain-data [`CtrlConfig`] and [`FaultConfig`]; [`rng`]: the one seeded
+//!   random source. Same seed → identical event sequence.
+
+#![deny(missing_docs)]
+
+pub mod camera;
+pub mod config;
+pub mod controller;
+pub mod error;
+pub mod line;
+pub mod node;
+pub mod rng;
+pub mod stage;
+pub mod world;
+
+pub use config::{CtrlConfig, FaultConfig};
+pub use controller::{Controller, CtrlEvent, CtrlOutput};
+pub use error::SimError;
+pub use node::{ControllerNode, NodeEvent};
+pub use rng::SimRng;
+pub use world::{PegPose, World};

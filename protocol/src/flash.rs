@@ -219,6 +219,32 @@ pub enum FlashRejectReason {
     },
     /// A chunk or commit arrived without a header first.
     NoFlashInProgress,
+    /// The image is intact but the plan breaks a safety limit of the executor's
+    /// configuration.
+    Unsafe {
+        /// Offending step; `step_count` when the plan as a whole is at fault (its final stop
+        /// or its extent).
+        step_index: u32,
+        /// Which limit.
+        limit: SafetyLimit,
+    },
+    /// The image verified but could not be stored persistently; the previous plan stays.
+    NotStored,
+}
+
+/// A safety limit a plan can break (the executor's log has the numbers).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SafetyLimit {
+    /// A step's speed is zero.
+    ZeroSpeed,
+    /// A step moves by less than 1 nm.
+    ZeroLength,
+    /// A step is faster than the speed limit.
+    Speed,
+    /// A velocity change needs more than the acceleration limit.
+    Acceleration,
+    /// The path leaves (or does not fit) the workspace box.
+    Workspace,
 }
 
 impl MaxSize for PlanStep {
@@ -233,7 +259,12 @@ impl MaxSize for FlashChunk {
     const MAX_SIZE: usize = 2 * u32::MAX_SIZE + <Vec<u8, FLASH_CHUNK_MAX_BYTES>>::MAX_SIZE;
 }
 
+impl MaxSize for SafetyLimit {
+    const MAX_SIZE: usize = crate::max_size::discriminant_bytes(5);
+}
+
 impl MaxSize for FlashRejectReason {
-    // Largest variants carry two u32 fields.
-    const MAX_SIZE: usize = crate::max_size::discriminant_bytes(9) + 2 * u32::MAX_SIZE;
+    // Largest variants carry two u32 fields (`Unsafe` carries one and a `SafetyLimit`).
+    const MAX_SIZE: usize = crate::max_size::discriminant_bytes(11)
+        + crate::max_size::max_of(&[2 * u32::MAX_SIZE, u32::MAX_SIZE + SafetyLimit::MAX_SIZE]);
 }

@@ -6,7 +6,7 @@
 //! executor's clock, `ctrl_time_us` in the controller's, `host_time_us` in the host's.
 
 use crate::ctrl::FaultReport;
-use crate::flash::{FlashChunk, FlashHeader, FlashRejectReason};
+use crate::flash::{FlashChunk, FlashHeader, FlashRejectReason, SafetyLimit};
 use crate::max_size::{MaxSize, discriminant_bytes, max_of};
 use serde::{Deserialize, Serialize};
 
@@ -35,7 +35,8 @@ impl Hello {
 pub enum HostToExec {
     /// Open the session; the executor answers [`ExecToHost::HelloReply`].
     Hello(Hello),
-    /// Begin flashing the plan described by the header; discards any previous plan.
+    /// Begin flashing the plan described by the header. The previous plan stays until the
+    /// new one is accepted.
     FlashBegin(FlashHeader),
     /// Next chunk of the image.
     FlashChunk(FlashChunk),
@@ -118,6 +119,21 @@ pub enum CommandRejectReason {
     },
     /// The peer's protocol version or schema hash differs (or no handshake yet).
     Incompatible,
+    /// Arming refused: from the probe's current position the plan breaks a safety limit.
+    Unsafe {
+        /// Offending step; `None` when the probe already is outside the workspace.
+        step_index: Option<u32>,
+        /// Which limit.
+        limit: SafetyLimit,
+    },
+    /// Arming refused for now: the controller's clock is not synced yet or its probe
+    /// position is unknown; retry.
+    NotReady {
+        /// Clock sync with the controller is established.
+        clock_synced: bool,
+        /// A controller position report has been received.
+        position_known: bool,
+    },
 }
 
 /// Why a trial stopped on its own.
@@ -224,7 +240,7 @@ pub enum ExecToHost {
         /// Steps in it.
         step_count: u32,
     },
-    /// Image refused; no plan is stored.
+    /// Image refused; the previously accepted plan, if any, stays stored.
     FlashRejected {
         /// Plan refused.
         plan_id: u32,
@@ -271,8 +287,13 @@ impl MaxSize for ExecStatus {
 }
 
 impl MaxSize for CommandRejectReason {
-    const MAX_SIZE: usize =
-        discriminant_bytes(3) + max_of(&[ExecState::MAX_SIZE, <Option<u32>>::MAX_SIZE]);
+    const MAX_SIZE: usize = discriminant_bytes(5)
+        + max_of(&[
+            ExecState::MAX_SIZE,
+            <Option<u32>>::MAX_SIZE,
+            <Option<u32>>::MAX_SIZE + SafetyLimit::MAX_SIZE,
+            2 * bool::MAX_SIZE,
+        ]);
 }
 
 impl MaxSize for TrialFault {

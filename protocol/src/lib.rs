@@ -41,7 +41,7 @@ pub use max_size::MaxSize;
 pub use reader::FrameReader;
 
 /// Protocol version; bumped when a change breaks compatibility with deployed peers.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;
 
 /// Description of every wire type, in encoding order. Edit it with every change to a type in
 /// [`host`], [`ctrl`], [`flash`] or [`frame`]; [`SCHEMA_HASH`] is derived from it.
@@ -50,7 +50,8 @@ frame: Frame<M>{sender_session:u16,receiver_session:Option<u16>,ack:u16,kind:Fra
 flash: FlashHeader{format_version:u16,plan_id:u32,step_count:u32,image_len_bytes:u32,image_crc32:u32}
 flash: FlashChunk{plan_id:u32,offset_bytes:u32,data:Vec<u8,192>}
 flash: PlanStep{dx_nm:i32,dy_nm:i32,speed_nm_s:u32} image=le-fixed-12
-flash: FlashRejectReason=UnsupportedFormatVersion{got:u16}|StepCountMismatch{step_count:u32,image_len_bytes:u32}|PartialStep{image_len_bytes:u32}|TooLarge{image_len_bytes:u32,capacity_bytes:u32}|PlanIdMismatch{expected_plan_id:u32,got_plan_id:u32}|OutOfOrderChunk{expected_offset_bytes:u32,got_offset_bytes:u32}|LengthMismatch{expected_len_bytes:u32,received_len_bytes:u32}|CrcMismatch{expected_crc32:u32,computed_crc32:u32}|NoFlashInProgress
+flash: FlashRejectReason=UnsupportedFormatVersion{got:u16}|StepCountMismatch{step_count:u32,image_len_bytes:u32}|PartialStep{image_len_bytes:u32}|TooLarge{image_len_bytes:u32,capacity_bytes:u32}|PlanIdMismatch{expected_plan_id:u32,got_plan_id:u32}|OutOfOrderChunk{expected_offset_bytes:u32,got_offset_bytes:u32}|LengthMismatch{expected_len_bytes:u32,received_len_bytes:u32}|CrcMismatch{expected_crc32:u32,computed_crc32:u32}|NoFlashInProgress|Unsafe{step_index:u32,limit:SafetyLimit}|NotStored
+flash: SafetyLimit=ZeroSpeed|ZeroLength|Speed|Acceleration|Workspace
 ctrl: MoveSegment{segment_id:u32,start_ctrl_time_us:u64,target_x_nm:i32,target_y_nm:i32,speed_nm_s:u32}
 ctrl: ExecToCtrl=Move(MoveSegment)|Stop|ClockSyncQuery{query_id:u32}|StatusQuery|Heartbeat{exec_time_us:u64}|ClearFault
 ctrl: CtrlState=Idle|Moving|Stopped|Faulted
@@ -63,7 +64,7 @@ host: Hello{protocol_version:u16,schema_hash:u32}
 host: HostToExec=Hello(Hello)|FlashBegin(FlashHeader)|FlashChunk(FlashChunk)|FlashCommit{plan_id:u32}|Arm{plan_id:u32}|Start{plan_id:u32}|Abort|StatusQuery|Heartbeat{host_time_us:u64}
 host: ExecState=Idle|Flashing|PlanFlashed|Armed|Running|Done|Aborted|Faulted
 host: ExecStatus{exec_time_us:u64,state:ExecState,plan_id:Option<u32>,step_count:u32,step_index:u32,last_fault:Option<TrialFault>}
-host: CommandRejectReason=WrongState{state:ExecState}|PlanIdMismatch{stored_plan_id:Option<u32>}|Incompatible
+host: CommandRejectReason=WrongState{state:ExecState}|PlanIdMismatch{stored_plan_id:Option<u32>}|Incompatible|Unsafe{step_index:Option<u32>,limit:SafetyLimit}|NotReady{clock_synced:bool,position_known:bool}
 host: TrialFault=Controller(FaultReport)|ControllerSilent{last_heard_exec_time_us:u64}|HostLinkLost{last_heard_exec_time_us:u64}|ClockSyncLost|StreamUnderrun{step_index:u32}
 host: TrialEventKind=Started|Done|Aborted|Faulted(TrialFault)
 host: TrialEvent{exec_time_us:u64,plan_id:u32,step_index:u32,kind:TrialEventKind}

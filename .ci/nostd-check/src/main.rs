@@ -10,8 +10,6 @@
 #[cfg(feature = "canary-std")]
 extern crate std;
 
-#[cfg(feature = "mesopush-executor")]
-use mesopush_executor as _;
 
 use core::hint::black_box;
 use mesopush_protocol::ctrl::{CtrlToExec, ExecToCtrl, MoveSegment};
@@ -55,6 +53,24 @@ fn exercise() -> u32 {
     speed_nm_s ^ image_crc32(&image) ^ u32::from(header_ok.is_ok())
 }
 
+/// Runs the executor core on one input so its state machine is compiled and linked.
+#[cfg(feature = "mesopush-executor")]
+fn exercise_executor() -> u32 {
+    use mesopush_executor::{Executor, ExecutorConfig, Input, MemStore, Outputs};
+    let store = MemStore::<240>::new();
+    let Ok(mut exec) = Executor::<_, 240, 8>::new(ExecutorConfig::DEFAULT, store) else {
+        return 0;
+    };
+    let mut out = Outputs::<16>::new();
+    let _ = exec.handle(black_box(5), Input::Tick, &mut out);
+    out.len() as u32
+}
+
+#[cfg(not(feature = "mesopush-executor"))]
+fn exercise_executor() -> u32 {
+    0
+}
+
 /// The host target's precompiled `core` references the unwinding personality routine even
 /// under panic=abort; it is never called, and without `std` nothing else provides it.
 #[cfg(not(target_os = "none"))]
@@ -64,6 +80,6 @@ extern "C" fn rust_eh_personality() {}
 /// Entry point; never run, only linked.
 #[unsafe(no_mangle)]
 pub extern "C" fn _start() -> ! {
-    black_box(exercise());
+    black_box(exercise() ^ exercise_executor());
     loop {}
 }

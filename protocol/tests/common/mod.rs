@@ -9,7 +9,7 @@ use mesopush_protocol::ctrl::{
     CtrlState, CtrlStatus, CtrlToExec, ExecToCtrl, FaultCode, FaultReport, MoveSegment,
     PositionReport,
 };
-use mesopush_protocol::flash::{FlashChunk, FlashHeader, FlashRejectReason, PlanStep};
+use mesopush_protocol::flash::{FlashChunk, FlashHeader, FlashRejectReason, PlanStep, SafetyLimit};
 use mesopush_protocol::host::{
     CommandRejectReason, ExecState, ExecStatus, ExecToHost, FrameStamp, Hello, HostToExec,
     ProbeTelemetry, TrialEvent, TrialEventKind, TrialFault,
@@ -86,6 +86,12 @@ fn all_flash_rejects() -> Vec<(&'static str, FlashRejectReason)> {
         ("length", R::LengthMismatch { expected_len_bytes: 24, received_len_bytes: 12 }),
         ("crc", R::CrcMismatch { expected_crc32: 1, computed_crc32: 2 }),
         ("no_flash", R::NoFlashInProgress),
+        ("unsafe.zero_speed", R::Unsafe { step_index: 2, limit: SafetyLimit::ZeroSpeed }),
+        ("unsafe.zero_length", R::Unsafe { step_index: 2, limit: SafetyLimit::ZeroLength }),
+        ("unsafe.speed", R::Unsafe { step_index: 2, limit: SafetyLimit::Speed }),
+        ("unsafe.accel", R::Unsafe { step_index: 3, limit: SafetyLimit::Acceleration }),
+        ("unsafe.workspace", R::Unsafe { step_index: 3, limit: SafetyLimit::Workspace }),
+        ("not_stored", R::NotStored),
     ]
 }
 
@@ -140,6 +146,15 @@ pub fn exec_to_host() -> Vec<(String, ExecToHost)> {
         ("wrong_state", CommandRejectReason::WrongState { state: ExecState::Running }),
         ("plan_id", CommandRejectReason::PlanIdMismatch { stored_plan_id: Some(6) }),
         ("incompatible", CommandRejectReason::Incompatible),
+        (
+            "unsafe",
+            CommandRejectReason::Unsafe { step_index: Some(4), limit: SafetyLimit::Workspace },
+        ),
+        (
+            "unsafe_start",
+            CommandRejectReason::Unsafe { step_index: None, limit: SafetyLimit::Workspace },
+        ),
+        ("not_ready", CommandRejectReason::NotReady { clock_synced: true, position_known: false }),
     ];
     for (name, reason) in rejects {
         out.push((format!("exec.command_rejected.{name}"), ExecToHost::CommandRejected(reason)));

@@ -4,7 +4,9 @@ use mesopush_protocol::ctrl::{
     CtrlState, CtrlStatus, CtrlToExec, ExecToCtrl, FaultCode, FaultReport, MoveSegment,
     PositionReport,
 };
-use mesopush_protocol::flash::{FLASH_CHUNK_MAX_BYTES, FlashChunk, FlashHeader, FlashRejectReason};
+use mesopush_protocol::flash::{
+    FLASH_CHUNK_MAX_BYTES, FlashChunk, FlashHeader, FlashRejectReason, SafetyLimit,
+};
 use mesopush_protocol::host::{
     CommandRejectReason, ExecState, ExecStatus, ExecToHost, FrameStamp, Hello, HostToExec,
     ProbeTelemetry, TrialEvent, TrialEventKind, TrialFault,
@@ -82,6 +84,18 @@ pub fn flash_reject() -> impl Strategy<Value = FlashRejectReason> {
             computed_crc32
         }),
         Just(R::NoFlashInProgress),
+        (a, safety_limit()).prop_map(|(step_index, limit)| R::Unsafe { step_index, limit }),
+        Just(R::NotStored),
+    ]
+}
+
+pub fn safety_limit() -> impl Strategy<Value = SafetyLimit> {
+    prop_oneof![
+        Just(SafetyLimit::ZeroSpeed),
+        Just(SafetyLimit::ZeroLength),
+        Just(SafetyLimit::Speed),
+        Just(SafetyLimit::Acceleration),
+        Just(SafetyLimit::Workspace),
     ]
 }
 
@@ -171,6 +185,11 @@ fn command_reject() -> impl Strategy<Value = CommandRejectReason> {
         any::<Option<u32>>()
             .prop_map(|stored_plan_id| CommandRejectReason::PlanIdMismatch { stored_plan_id }),
         Just(CommandRejectReason::Incompatible),
+        (any::<Option<u32>>(), safety_limit())
+            .prop_map(|(step_index, limit)| CommandRejectReason::Unsafe { step_index, limit }),
+        (any::<bool>(), any::<bool>()).prop_map(|(clock_synced, position_known)| {
+            CommandRejectReason::NotReady { clock_synced, position_known }
+        }),
     ]
 }
 

@@ -1,0 +1,222 @@
+//! The executor core on the wire: two reliable links and their framing around [`Executor`].
+//!
+//! Still sans-IO: bytes in ([`Endpoint::on_host_bytes`], [`Endpoint::on_ctrl_bytes`]), bytes
+//! out ([`Endpoint::transmit_host`], [`Endpoint::transmit_ctrl`]), time passed in. The std
+//! shell reads serial ports into it; simulations feed it simulated lines. Messages the core
+//! emits wait in a bounded outbox while a link's window is full (the core's flow control
+//! keeps moves within the window); an outbox that overflows counts the loss in
+//! [`EndpointStats`] (it cannot with `W ≥ LA + MIN_FREE_OUTPUTS`, checked at compile time).
+//! A link that goes down is reported to the core (which stops the trial) and restarted
+//! under a new session so the `Stop` still goes out.
+
+use crate::io::{Input, LogEvent, MIN_FREE_OUTPUTS, Output, Outputs};
+use crate::machine::Executor;
+use crate::store::PlanStore;
+use crate::{CameraFrame, ExecError};
+use heapless::Deque;
+use mesopush_protocol::{
+    CtrlToExec, ExecToCtrl, ExecToHost, FRAME_BUF_LEN, FrameReader, HostToExec, Link, LinkConfig,
+    encode_frame,
+};
+
+/// Room for outputs of one core call.
+const OUT: usize = 64;
+
+/// Counters of the endpoint.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct EndpointStats {
+    /// Messages for the host lost to a full outbox.
+    pub host_dropped: u64,
+    /// Messages for the controller lost to a full outbox.
+    pub ctrl_dropped: u64,
+    /// Times the host link went down.
+    pub host_link_downs: u64,
+    /// Times the controller link went down.
+    pub ctrl_link_downs: u64,
+    /// Frames too long for the reader.
+    pub overlong_frames: u64,
+}
+
+/// Executor core plus links; `W` is both links' window.
+#[derive(Debug)]
+pub struct Endpoint<S, const CAP: usize, const LA: usize, const W: usize> {
+    core: Executor<S, CAP, LA>,
+    host_link: Link<ExecToHost, HostToExec, W>,
+    ctrl_link: Link<ExecToCtrl, CtrlToExec, W>,
+    host_reader: FrameReader<FRAME_BUF_LEN>,
+    ctrl_reader: FrameReader<FRAME_BUF_LEN>,
+    host_outbox: Deque<ExecToHost, OUT>,
+    ctrl_outbox: Deque<ExecToCtrl, OUT>,
+    out: Outputs<OUT>,
+    session: u16,
+    stats: EndpointStats,
+}
+
+impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S, CAP, LA, W> {
+    const SIZES_OK: () = assert!(W >= LA + MIN_FREE_OUTPUTS && OUT >= LA + MIN_FREE_OUTPUTS);
+
+    /// Wraps `core`; `session` is this boot's link session (differs from the last boot's).
+    pub fn new(core: Executor<S, CAP, LA>, link: LinkConfig, session: u16) -> Self {
+        let () = Self::SIZES_OK;
+        Self {
+            core,
+            host_link: Link::new(link, session),
+            ctrl_link: Link::new(link, session),
+            host_reader: FrameReader::new(),
+            ctrl_reader: FrameReader::new(),
+            host_outbox: Deque::new(),
+            ctrl_outbox: Deque::new(),
+            out: Outputs::new(),
+            session,
+            stats: EndpointStats::default(),
+        }
+    }
+
+    /// The core.
+    pub fn core(&self) -> &Executor<S, CAP, LA> {
+        &self.core
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> EndpointStats {
+        self.stats
+    }
+
+    /// The controller link (statistics).
+    pub fn ctrl_link(&self) -> &Link<ExecToCtrl, CtrlToExec, W> {
+        &self.ctrl_link
+    }
+
+    /// Bytes from the host line.
+    pub fn on_host_bytes(
+        &mut self,
+        now_us: u64,
+        bytes: &[u8],
+        log: &mut impl FnMut(&LogEvent),
+    ) -> Result<(), ExecError> {
+        for &byte in bytes {
+            let msg = match self.host_reader.push_byte(byte) {
+                None => continue,
+                Some(Err(_)) => {
+                    self.stats.overlong_frames += 1;
+                    continue;
+                }
+                Some(Ok(frame)) => self.host_link.on_bytes(now_us, frame),
+            };
+            if let Some(msg) = msg {
+                self.feed(now_us, Input::Host(&msg), log)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Bytes from the controller line.
+    pub fn on_ctrl_bytes(
+        &mut self,
+        now_us: u64,
+        bytes: &[u8],
+        log: &mut impl FnMut(&LogEvent),
+    ) -> Result<(), ExecError> {
+        for &byte in bytes {
+            let msg = match self.ctrl_reader.push_byte(byte) {
+                None => continue,
+                Some(Err(_)) => {
+                    self.stats.overlong_frames += 1;
+                    continue;
+                }
+                Some(Ok(frame)) => self.ctrl_link.on_bytes(now_us, frame),
+            };
+            if let Some(msg) = msg {
+                self.feed(now_us, Input::Ctrl(&msg), log)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// A camera frame arrived.
+    pub fn on_frame(
+        &mut self,
+        now_us: u64,
+        frame: CameraFrame,
+        log: &mut impl FnMut(&LogEvent),
+    ) -> Result<(), ExecError> {
+        self.feed(now_us, Input::Frame(frame), log)
+    }
+
+    /// Drives timeouts (links, core timers); call at least at [`Self::next_deadline_us`].
+    pub fn poll(&mut self, now_us: u64, log: &mut impl FnMut(&LogEvent)) -> Result<(), ExecError> {
+        if self.host_link.poll(now_us).is_err() {
+            self.stats.host_link_downs += 1;
+            self.session = self.session.wrapping_add(1);
+            self.host_link.reset(self.session);
+            self.feed(now_us, Input::HostLinkDown, log)?;
+        }
+        if self.ctrl_link.poll(now_us).is_err() {
+            self.stats.ctrl_link_downs += 1;
+            self.session = self.session.wrapping_add(1);
+            self.ctrl_link.reset(self.session);
+            self.feed(now_us, Input::CtrlLinkDown, log)?;
+        }
+        self.feed(now_us, Input::Tick, log)
+    }
+
+    /// When to call [`Self::poll`] next, µs in the executor's clock.
+    pub fn next_deadline_us(&self) -> u64 {
+        let links = [self.host_link.next_timeout_us(), self.ctrl_link.next_timeout_us()];
+        links.into_iter().flatten().fold(self.core.next_deadline_us(), u64::min)
+    }
+
+    /// The next frame for the host, encoded into `buf`.
+    pub fn transmit_host<'b>(&mut self, now_us: u64, buf: &'b mut [u8]) -> Option<&'b [u8]> {
+        Self::flush(&mut self.host_outbox, &mut self.host_link);
+        let frame = self.host_link.poll_transmit(now_us)?;
+        encode_frame(&frame, buf).ok()
+    }
+
+    /// The next frame for the controller, encoded into `buf`.
+    pub fn transmit_ctrl<'b>(&mut self, now_us: u64, buf: &'b mut [u8]) -> Option<&'b [u8]> {
+        Self::flush(&mut self.ctrl_outbox, &mut self.ctrl_link);
+        let frame = self.ctrl_link.poll_transmit(now_us)?;
+        encode_frame(&frame, buf).ok()
+    }
+
+    fn flush<Tx, Rx: serde::de::DeserializeOwned>(
+        outbox: &mut Deque<Tx, OUT>,
+        link: &mut Link<Tx, Rx, W>,
+    ) {
+        while let Some(msg) = outbox.pop_front() {
+            if let Err(msg) = link.send(msg) {
+                let _ = outbox.push_front(msg); // the slot just freed
+                return;
+            }
+        }
+    }
+
+    fn feed(
+        &mut self,
+        now_us: u64,
+        input: Input<'_>,
+        log: &mut impl FnMut(&LogEvent),
+    ) -> Result<(), ExecError> {
+        self.core.handle(now_us, input, &mut self.out)?;
+        for output in self.out.iter() {
+            match output {
+                Output::Host(m) => {
+                    if self.host_outbox.push_back(m.clone()).is_err() {
+                        self.stats.host_dropped += 1;
+                    }
+                }
+                Output::Ctrl(m) => {
+                    if self.ctrl_outbox.push_back(*m).is_err() {
+                        self.stats.ctrl_dropped += 1;
+                    }
+                }
+                Output::Log(e) => log(e),
+            }
+        }
+        self.out.clear();
+        Self::flush(&mut self.host_outbox, &mut self.host_link);
+        Self::flush(&mut self.ctrl_outbox, &mut self.ctrl_link);
+        Ok(())
+    }
+}

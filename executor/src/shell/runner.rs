@@ -1,0 +1,181 @@
+//! The shell's loop: reader threads, the endpoint, writers, the recorder channel.
+
+use super::port::{ByteRead, ByteWrite, CHUNK_BYTES, Chunk};
+use crate::camera::CameraFrame;
+use crate::clock::Clock;
+use crate::endpoint::Endpoint;
+use crate::io::LogEvent;
+use crate::store::PlanStore;
+use crossbeam_channel::{Receiver, Sender, bounded, never, select};
+use mesopush_protocol::FRAME_BUF_LEN;
+use std::io;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::Duration;
+use std::vec;
+use std::vec::Vec;
+
+/// Chunks buffered between a reader thread and the loop.
+const READ_QUEUE_CHUNKS: usize = 256;
+/// Longest wait of the loop, so a stop request is seen promptly.
+const MAX_WAIT_US: u64 = 10_000;
+
+/// Counters of a shell run.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct ShellStats {
+    /// Loop iterations.
+    pub iterations: u64,
+    /// Log records handed to the recorder.
+    pub logged: u64,
+    /// Log records lost because the recorder's channel was full.
+    pub log_dropped: u64,
+    /// Largest lateness of a loop wake-up past the core's deadline, µs.
+    pub max_late_us: u64,
+}
+
+/// Why the loop ended.
+#[derive(Debug)]
+pub enum ShellEnd {
+    /// A stop was requested.
+    Stopped,
+    /// The host's line closed or failed.
+    HostLine(io::Error),
+    /// The controller's line closed or failed.
+    CtrlLine(io::Error),
+}
+
+/// The loop and its threads.
+#[derive(Debug)]
+pub struct Shell {
+    stop: Arc<AtomicBool>,
+    readers: Vec<JoinHandle<io::Result<()>>>,
+}
+
+fn spawn_reader(
+    mut link: impl ByteRead + 'static,
+    tx: Sender<Chunk>,
+    stop: Arc<AtomicBool>,
+) -> JoinHandle<io::Result<()>> {
+    std::thread::spawn(move || {
+        let mut buf = [0u8; CHUNK_BYTES];
+        while !stop.load(Ordering::Relaxed) {
+            let n = link.read_bytes(&mut buf)?;
+            if n > 0 && tx.send(Chunk::new(&buf[..n])).is_err() {
+                break; // the loop is gone
+            }
+        }
+        Ok(())
+    })
+}
+
+impl Shell {
+    /// Runs `endpoint` on the two lines until `stop_rx` fires or a line fails; camera
+    /// frames arrive on `frames`, log records go to `log` (never blocking).
+    #[allow(clippy::too_many_arguments)]
+    pub fn run<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
+        endpoint: &mut Endpoint<S, CAP, LA, W>,
+        clock: &impl Clock,
+        host: (impl ByteRead + 'static, impl ByteWrite),
+        ctrl: (impl ByteRead + 'static, impl ByteWrite),
+        frames: Option<Receiver<CameraFrame>>,
+        log: Sender<LogEvent>,
+        stop_rx: Receiver<()>,
+        stats: &mut ShellStats,
+    ) -> ShellEnd {
+        let stop = Arc::new(AtomicBool::new(false));
+        let (host_tx, host_rx) = bounded(READ_QUEUE_CHUNKS);
+        let (ctrl_tx, ctrl_rx) = bounded(READ_QUEUE_CHUNKS);
+        let mut shell = Shell {
+            stop: stop.clone(),
+            readers: vec![
+                spawn_reader(host.0, host_tx, stop.clone()),
+                spawn_reader(ctrl.0, ctrl_tx, stop),
+            ],
+        };
+        let (mut host_w, mut ctrl_w) = (host.1, ctrl.1);
+        let frames = frames.unwrap_or_else(never);
+        let end = loop {
+            let ends =
+                Lines { host_rx: &host_rx, ctrl_rx: &ctrl_rx, frames: &frames, stop_rx: &stop_rx };
+            if let Some(end) = Self::iterate(endpoint, clock, &ends, &log, stats) {
+                break end;
+            }
+            if let Err(end) = Self::transmit(endpoint, clock.now_us(), &mut host_w, &mut ctrl_w) {
+                break end;
+            }
+        };
+        shell.join();
+        end
+    }
+
+    fn iterate<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
+        endpoint: &mut Endpoint<S, CAP, LA, W>,
+        clock: &impl Clock,
+        lines: &Lines<'_>,
+        log: &Sender<LogEvent>,
+        stats: &mut ShellStats,
+    ) -> Option<ShellEnd> {
+        stats.iterations += 1;
+        let mut record = |e: &LogEvent| match log.try_send(*e) {
+            Ok(()) => stats.logged += 1,
+            Err(_) => stats.log_dropped += 1,
+        };
+        let deadline = endpoint.next_deadline_us();
+        let wait_us = deadline.saturating_sub(clock.now_us()).min(MAX_WAIT_US);
+        let fed = select! {
+            recv(lines.host_rx) -> c => match c {
+                Ok(c) => endpoint.on_host_bytes(clock.now_us(), c.bytes(), &mut record),
+                Err(_) => return Some(ShellEnd::HostLine(io::Error::other("host reader ended"))),
+            },
+            recv(lines.ctrl_rx) -> c => match c {
+                Ok(c) => endpoint.on_ctrl_bytes(clock.now_us(), c.bytes(), &mut record),
+                Err(_) => return Some(ShellEnd::CtrlLine(io::Error::other("controller reader ended"))),
+            },
+            recv(lines.frames) -> f => match f {
+                Ok(f) => endpoint.on_frame(clock.now_us(), f, &mut record),
+                Err(_) => Ok(()),
+            },
+            recv(lines.stop_rx) -> _ => return Some(ShellEnd::Stopped),
+            default(Duration::from_micros(wait_us)) => Ok(()),
+        };
+        let now = clock.now_us();
+        if now > deadline {
+            stats.max_late_us = stats.max_late_us.max(now - deadline);
+        }
+        // The core only fails on a too-small output buffer, which Endpoint rules out.
+        let polled = fed.and_then(|()| endpoint.poll(now, &mut record));
+        debug_assert!(polled.is_ok(), "endpoint output buffer too small");
+        None
+    }
+
+    fn transmit<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
+        endpoint: &mut Endpoint<S, CAP, LA, W>,
+        now: u64,
+        host_w: &mut impl ByteWrite,
+        ctrl_w: &mut impl ByteWrite,
+    ) -> Result<(), ShellEnd> {
+        let mut buf = [0u8; FRAME_BUF_LEN];
+        while let Some(frame) = endpoint.transmit_ctrl(now, &mut buf) {
+            ctrl_w.write_bytes(frame).map_err(ShellEnd::CtrlLine)?;
+        }
+        while let Some(frame) = endpoint.transmit_host(now, &mut buf) {
+            host_w.write_bytes(frame).map_err(ShellEnd::HostLine)?;
+        }
+        Ok(())
+    }
+
+    fn join(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        for reader in self.readers.drain(..) {
+            let _ = reader.join();
+        }
+    }
+}
+
+struct Lines<'a> {
+    host_rx: &'a Receiver<Chunk>,
+    ctrl_rx: &'a Receiver<Chunk>,
+    frames: &'a Receiver<CameraFrame>,
+    stop_rx: &'a Receiver<()>,
+}
