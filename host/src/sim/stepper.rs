@@ -67,6 +67,8 @@ pub struct Simulator {
     solver: LcpSolver,
     contacts: Vec<(Contact, f64)>,
     scratch: Vec<Contact>,
+    warm: Vec<bool>,
+    warm_kinds: Vec<ContactKind>,
 }
 
 impl Simulator {
@@ -88,6 +90,8 @@ impl Simulator {
             solver: LcpSolver::new(capacity, LcpSettings::default()),
             contacts: Vec::with_capacity(16),
             scratch: Vec::with_capacity(16),
+            warm: Vec::with_capacity(capacity),
+            warm_kinds: Vec::with_capacity(16),
         })
     }
 
@@ -210,7 +214,22 @@ impl Simulator {
         };
         let lay = self.problem.build(&inputs);
         let problem = MlcpProblem { n_free: 3, n: lay.n(), m: &self.problem.m, q: &self.problem.q };
-        let sol = self.solver.solve(&problem).map_err(Error::Lcp)?;
+        // Warm start from the previous step's active set when the contacts are the same ones
+        // (same count and kinds, in order); the solver verifies the guess and falls back to
+        // Lemke when it does not hold. Deterministic: the guess is a function of the history.
+        let same = self.warm.len() == lay.n()
+            && self.warm_kinds.len() == self.contacts.len()
+            && self.warm_kinds.iter().zip(&self.contacts).all(|(k, (c, _))| *k == c.kind);
+        let sol = if same {
+            self.solver.solve_warm(&problem, &self.warm)
+        } else {
+            self.solver.solve(&problem)
+        }
+        .map_err(Error::Lcp)?;
+        self.warm.clear();
+        self.warm.extend_from_slice(sol.active);
+        self.warm_kinds.clear();
+        self.warm_kinds.extend(self.contacts.iter().map(|(c, _)| c.kind));
         let z = sol.z;
         info.solved_lcp = true;
         info.pivots = sol.pivots;
