@@ -28,8 +28,20 @@ enum Command {
     Track(cmd_track::TrackArgs),
 }
 
-fn main() -> anyhow::Result<()> {
+/// Runs the command; errors are printed as one `error: …` line (with their causes) and exit
+/// code 1, never as a panic or a backtrace dump.
+fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Sim(args) => cmd_sim::run(&args),
         Command::Lcp(args) => cmd_lcp::run(args),
