@@ -29,16 +29,7 @@ fn inserts_both(model: &Model, p: &PaperFixtureParams, plan: &Plan) -> Option<Si
 fn main() {
     let plan = Plan::table2();
     let mut rng = ChaCha8Rng::seed_from_u64(2027);
-    let s0 = plan.peg_start_pose();
-    let starts: Vec<Pose> = (0..24)
-        .map(|_| {
-            Pose::new(
-                s0.x_um + rng.random_range(-26.0..=26.0),
-                s0.y_um + rng.random_range(-74.0..=74.0),
-                s0.theta_rad + rng.random_range(-3.0f64..=3.0).to_radians(),
-            )
-        })
-        .collect();
+    let starts = plan.perturbed_starts(&mut rng, 24, (26.0, 74.0, 3.0));
     let centre = [[-250.0, 440.0], [50.0, -330.0], [250.0, 60.0]];
     let wide = std::env::args().any(|a| a == "--wide");
     let mut supports = Vec::new();

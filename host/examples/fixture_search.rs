@@ -34,16 +34,7 @@ fn fixtures() -> Vec<PaperFixtureParams> {
 fn main() {
     let plan = Plan::table2();
     let mut rng = ChaCha8Rng::seed_from_u64(2026);
-    let s0 = plan.peg_start_pose();
-    let starts: Vec<Pose> = (0..12)
-        .map(|_| {
-            Pose::new(
-                s0.x_um + rng.random_range(-26.0..=26.0),
-                s0.y_um + rng.random_range(-74.0..=74.0),
-                s0.theta_rad + rng.random_range(-3.0f64..=3.0).to_radians(),
-            )
-        })
-        .collect();
+    let starts = plan.perturbed_starts(&mut rng, 12, (26.0, 74.0, 3.0));
     let mut models = vec![Model::default()];
     while models.len() < 40 {
         let pts: [[f64; 2]; 3] = std::array::from_fn(|_| {

@@ -38,7 +38,35 @@ pub fn draw_plan(fig: &PlanFigure<'_>, path: &Path) -> Result<(), Error> {
     res.map_err(|e| Error::invalid("figure", format!("{}: {e}", path.display())))
 }
 
-type DrawResult = Result<(), Box<dyn std::error::Error>>;
+pub(crate) type DrawResult = Result<(), Box<dyn std::error::Error>>;
+
+/// Chart in fixture coordinates (µm, y down).
+pub(crate) type FixtureChart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// Fills the wall polygons (clipped to the view `(x0, x1, y0, y1)`) and outlines the camera
+/// field: the background shared by every fixture figure.
+pub(crate) fn draw_walls_and_field<DB: DrawingBackend>(
+    chart: &mut FixtureChart<'_, DB>,
+    walls: &[ConvexPolygon],
+    (x0, x1, y0, y1): (f64, f64, f64, f64),
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    for w in walls {
+        let pts: Vec<_> =
+            w.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect();
+        chart.draw_series(std::iter::once(Polygon::new(pts, RGBColor(190, 190, 200).filled())))?;
+    }
+    let (w, h) = (FIELD_UM[0], FIELD_UM[1]);
+    let field = vec![(0.0, 0.0), (w, 0.0), (w, h), (0.0, h), (0.0, 0.0)];
+    chart.draw_series(std::iter::once(PathElement::new(field, BLACK.stroke_width(1))))?;
+    Ok(())
+}
 
 fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, fig: &PlanFigure<'_>) -> DrawResult
 where
@@ -57,20 +85,7 @@ where
     let clip = |p: &ConvexPolygon| -> Vec<(f64, f64)> {
         p.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect()
     };
-    for w in fig.walls {
-        chart.draw_series(std::iter::once(Polygon::new(
-            clip(w),
-            RGBColor(190, 190, 200).filled(),
-        )))?;
-    }
-    let field = [
-        (0.0, 0.0),
-        (FIELD_UM[0], 0.0),
-        (FIELD_UM[0], FIELD_UM[1]),
-        (0.0, FIELD_UM[1]),
-        (0.0, 0.0),
-    ];
-    chart.draw_series(std::iter::once(PathElement::new(field.to_vec(), BLACK.stroke_width(1))))?;
+    draw_walls_and_field(&mut chart, fig.walls, (x0, x1, y0, y1))?;
     if let Some(g) = fig.goal {
         let mut pts = clip(g);
         pts.push(pts[0]);

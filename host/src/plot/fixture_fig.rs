@@ -1,6 +1,7 @@
 //! A dimensioned drawing of the reconstructed paper fixture (for `docs/fixture.md`): walls,
 //! camera field, goal, Table II's start pose and the dimensions that define the fixture.
 
+use super::fig6::{DrawResult, draw_walls_and_field};
 use crate::Error;
 use crate::geom::{ConvexPolygon, Pose};
 use crate::sim::fixture::{FIELD_UM, NARROW_CHANNEL_UM, PaperFixtureParams, WIDE_CHANNEL_UM};
@@ -28,8 +29,6 @@ pub fn draw_fixture(
     res.map_err(|e| Error::invalid("figure", format!("{}: {e}", path.display())))
 }
 
-type DrawResult = Result<(), Box<dyn std::error::Error>>;
-
 fn draw<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     p: &PaperFixtureParams,
@@ -49,19 +48,7 @@ where
         .y_label_area_size(55)
         .build_cartesian_2d(x0..x1, y1..y0)?;
     chart.configure_mesh().disable_mesh().x_desc("x [µm]").y_desc("y [µm]").draw()?;
-    for w in walls {
-        let pts: Vec<_> =
-            w.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect();
-        chart.draw_series(std::iter::once(Polygon::new(pts, RGBColor(190, 190, 200).filled())))?;
-    }
-    let field = [
-        (0.0, 0.0),
-        (FIELD_UM[0], 0.0),
-        (FIELD_UM[0], FIELD_UM[1]),
-        (0.0, FIELD_UM[1]),
-        (0.0, 0.0),
-    ];
-    chart.draw_series(std::iter::once(PathElement::new(field.to_vec(), BLACK.stroke_width(1))))?;
+    draw_walls_and_field(&mut chart, walls, (x0, x1, y0, y1))?;
     let mut peg: Vec<_> =
         part.transformed(peg_pose).vertices().iter().map(|v| (v.x, v.y)).collect();
     peg.push(peg[0]);

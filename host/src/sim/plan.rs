@@ -108,6 +108,27 @@ impl Plan {
         toml::to_string_pretty(self).expect("a plan always serialises")
     }
 
+    /// `n` start poses drawn uniformly within ±`dx_um`, ±`dy_um`, ±`dtheta_deg` of the
+    /// plan's nominal peg start (the paper's trials: 26 µm, 74 µm, 3°).
+    pub fn perturbed_starts(
+        &self,
+        rng: &mut impl rand::Rng,
+        n: usize,
+        (dx_um, dy_um, dtheta_deg): (f64, f64, f64),
+    ) -> Vec<Pose> {
+        use rand::RngExt;
+        let s = self.peg_start_pose();
+        (0..n)
+            .map(|_| {
+                Pose::new(
+                    s.x_um + rng.random_range(-dx_um..=dx_um),
+                    s.y_um + rng.random_range(-dy_um..=dy_um),
+                    s.theta_rad + rng.random_range(-dtheta_deg..=dtheta_deg).to_radians(),
+                )
+            })
+            .collect()
+    }
+
     /// Total probe travel, µm.
     pub fn travel_um(&self) -> f64 {
         self.moves_um.iter().map(|[x, y]| x.abs() + y.abs()).sum()
@@ -143,6 +164,24 @@ mod tests {
         let plan = Plan::load(&path).unwrap();
         assert_eq!(plan, Plan::table2());
         assert_eq!(plan.travel_um(), 7075.0);
+    }
+
+    #[test]
+    fn perturbed_starts_stay_within_their_bounds_and_follow_the_seed() {
+        use rand::SeedableRng;
+        let plan = Plan::table2();
+        let draw = |seed| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            plan.perturbed_starts(&mut rng, 200, (26.0, 74.0, 3.0))
+        };
+        let (a, b) = (draw(1), draw(1));
+        assert_eq!(a, b);
+        assert_ne!(a, draw(2));
+        let s = plan.peg_start_pose();
+        for p in &a {
+            assert!((p.x_um - s.x_um).abs() <= 26.0 && (p.y_um - s.y_um).abs() <= 74.0);
+            assert!((p.theta_rad - s.theta_rad).abs() <= 3f64.to_radians() + 1e-12);
+        }
     }
 
     #[test]
