@@ -9,6 +9,7 @@ pub mod geom;
 pub mod lcp;
 pub mod plot;
 pub mod sim;
+pub mod trial;
 pub mod units;
 pub mod vision;
 

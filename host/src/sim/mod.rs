@@ -2,6 +2,7 @@
 //! three-point support, pushed by a probe disc along piecewise-linear paths, touching fixture
 //! walls, advanced by solving the 2.5D mixed LCP of Eq. 7–8 at every step of probe travel.
 
+pub mod advance;
 pub mod contact;
 pub mod fixture;
 pub mod formulate;
@@ -13,11 +14,13 @@ pub use fixture::Fixture;
 pub use model::{Model, Part};
 pub use settings::SimSettings;
 pub use support::SupportDistribution;
+pub mod path;
 pub mod plan;
 pub mod replay;
 pub mod stepper;
 pub mod trajectory;
 
+pub use path::{PathReplay, PathSample, ProbePoint, follow_path};
 pub use plan::Plan;
 pub use replay::{Replay, replay};
 pub use stepper::{SimState, Simulator};

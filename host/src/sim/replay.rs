@@ -1,6 +1,7 @@
 //! Replays a plan through the simulator: probe moves cut into steps of probe travel (one jump
 //! where the probe is clear of the peg), the trajectory recorded, the verdict judged.
 
+use super::advance::{SegmentEnd, advance};
 use super::plan::Plan;
 use super::stepper::{SimState, Simulator, StepInfo, contact_label};
 use crate::Error;
@@ -83,8 +84,6 @@ pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<R
     plan.validate()?;
     let mut st =
         SimState { peg: start.unwrap_or(plan.peg_start_pose()), probe_um: plan.probe_start() };
-    let (step_um, margin) = (sim.settings().step_um, sim.settings().contact_margin_um);
-    let max_steps = sim.settings().max_steps;
     let mut out = Replay {
         samples: vec![sample(0.0, 0, &st, &StepInfo::default())],
         inserted: false,
@@ -95,47 +94,26 @@ pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<R
         max_probe_deflection_um: 0.0,
         events: Vec::new(),
     };
+    let mut budget = sim.settings().max_steps;
     let mut travel_um = 0.0;
     for (mi, [dx, dy]) in plan.moves_um.iter().enumerate() {
-        let total = Vec2::new(*dx, *dy);
-        let len = total.norm();
-        let dir = total / len.max(f64::MIN_POSITIVE);
-        let mut done = 0.0;
-        while len - done > 1e-9 {
-            if out.steps >= max_steps {
-                return Err(Error::invalid("replay", format!("exceeded max_steps = {max_steps}")));
-            }
-            let free = sim.probe_gap_um(&st) - margin;
-            let remaining = len - done;
-            let info = if free > step_um {
-                let d = free.min(remaining);
-                st.probe_um += dir * d;
-                done += d;
-                StepInfo::default()
-            } else {
-                let d = step_um.min(remaining);
-                match sim.step(&mut st, dir * d) {
-                    Ok(info) => {
-                        done += d;
-                        info
-                    }
-                    Err(e) => {
-                        out.events.push(SimEvent {
-                            t_s: (travel_um + done) / plan.speed_um_s,
-                            move_index: mi,
-                            what: format!("jammed: probe stopped for the rest of the move ({e})"),
-                        });
-                        break;
-                    }
-                }
-            };
+        let delta = Vec2::new(*dx, *dy);
+        let speed = plan.speed_um_s;
+        let end = advance(sim, &mut st, delta, &mut budget, |st, info, done| {
             out.steps += 1;
             out.lcp_solves += usize::from(info.solved_lcp);
             out.max_penetration_um = out.max_penetration_um.max(info.penetration_um);
             out.max_probe_deflection_um = out.max_probe_deflection_um.max(info.probe_deflection_um);
-            out.samples.push(sample((travel_um + done) / plan.speed_um_s, mi, &st, &info));
+            out.samples.push(sample((travel_um + done) / speed, mi, st, info));
+        })?;
+        if let SegmentEnd::Jammed { done_um, cause } = end {
+            out.events.push(SimEvent {
+                t_s: (travel_um + done_um) / speed,
+                move_index: mi,
+                what: format!("jammed: probe stopped for the rest of the move ({cause})"),
+            });
         }
-        travel_um += len;
+        travel_um += delta.norm();
     }
     out.inserted = sim.fixture().inserted(&st.peg.position());
     out.final_pose = st.peg;
