@@ -56,7 +56,12 @@ fn main() {
     for xs in [375.0, 450.0, 525.0, 600.0, 675.0] {
         for wt in [200.0, 300.0, 400.0] {
             for nt in (0..=8).map(|i| 850.0 + 25.0 * f64::from(i)) {
-                fx.push(PaperFixtureParams { x_step_um: xs, wide_top_um: wt, narrow_top_um: nt });
+                fx.push(PaperFixtureParams {
+                    x_step_um: xs,
+                    wide_top_um: wt,
+                    narrow_top_um: nt,
+                    chamfer_um: 0.0,
+                });
             }
         }
     }

@@ -24,7 +24,12 @@ fn fixtures() -> Vec<PaperFixtureParams> {
     for xs in (0..=10).map(|i| 300.0 + 150.0 * f64::from(i)) {
         for wt in (0..=4).map(|i| 100.0 * f64::from(i)) {
             for nt in (0..=12).map(|i| wt + 75.0 * f64::from(i)) {
-                out.push(PaperFixtureParams { x_step_um: xs, wide_top_um: wt, narrow_top_um: nt });
+                out.push(PaperFixtureParams {
+                    x_step_um: xs,
+                    wide_top_um: wt,
+                    narrow_top_um: nt,
+                    chamfer_um: 0.0,
+                });
             }
         }
     }

@@ -71,6 +71,11 @@ where
         (xn - 380.0, (nt + nb) / 2.0),
     )?;
     dim((0.0, 60.0), (p.x_step_um, 60.0), format!("step x = {:.0}", p.x_step_um), (50.0, 40.0))?;
+    if p.chamfer_um > 0.0 {
+        let c = p.chamfer_um;
+        let at = (p.x_step_um + 30.0, nt - c / 2.0);
+        dim((p.x_step_um, nt - c), (p.x_step_um - c, nt), format!("chamfer {c:.0} × 45°"), at)?;
+    }
     dim((-1400.0, 0.0), (-1400.0, wt), format!("{wt:.0}"), (-1350.0, wt / 2.0 + 40.0))?;
     dim((-1200.0, 0.0), (-1200.0, nt), format!("{nt:.0}"), (-1150.0, nt / 2.0 + 80.0))?;
     area.present()?;

@@ -45,13 +45,16 @@ pub struct PaperFixtureParams {
     pub wide_top_um: f64,
     /// y of the narrow channel's upper wall.
     pub narrow_top_um: f64,
+    /// 45° chamfer cut off both entrance corners of the narrow channel (leg length), µm.
+    #[serde(default)]
+    pub chamfer_um: f64,
 }
 
 impl Default for PaperFixtureParams {
     /// The reconstruction chosen in `docs/fixture.md` (searched jointly with the nominal
     /// support distribution by `host/examples/fixture_search.rs`).
     fn default() -> Self {
-        Self { x_step_um: 525.0, wide_top_um: 300.0, narrow_top_um: 950.0 }
+        Self { x_step_um: 525.0, wide_top_um: 300.0, narrow_top_um: 950.0, chamfer_um: 225.0 }
     }
 }
 
@@ -74,6 +77,7 @@ impl Fixture {
         let ok = p.x_step_um > 0.0
             && p.x_step_um < FIELD_UM[0]
             && p.wide_top_um >= 0.0
+            && (0.0..=300.0).contains(&p.chamfer_um)
             && p.narrow_top_um >= p.wide_top_um
             && narrow_bottom <= wide_bottom
             && wide_bottom < yb;
@@ -92,8 +96,28 @@ impl Fixture {
         };
         push_rect(p.x_step_um, 0.0, xr, p.wide_top_um)?;
         push_rect(p.x_step_um, wide_bottom, xr, yb)?;
-        push_rect(xl, 0.0, p.x_step_um, p.narrow_top_um)?;
-        push_rect(xl, narrow_bottom, p.x_step_um, yb)?;
+        let c = p.chamfer_um;
+        if c > 0.0 {
+            let (xs, nt, nb) = (p.x_step_um, p.narrow_top_um, narrow_bottom);
+            let v = |pts: &[[f64; 2]]| pts.iter().map(|&[x, y]| Vec2::new(x, y)).collect();
+            walls.push(ConvexPolygon::new(v(&[
+                [xl, 0.0],
+                [xs, 0.0],
+                [xs, nt - c],
+                [xs - c, nt],
+                [xl, nt],
+            ]))?);
+            walls.push(ConvexPolygon::new(v(&[
+                [xl, nb],
+                [xs - c, nb],
+                [xs, nb + c],
+                [xs, yb],
+                [xl, yb],
+            ]))?);
+        } else {
+            push_rect(xl, 0.0, p.x_step_um, p.narrow_top_um)?;
+            push_rect(xl, narrow_bottom, p.x_step_um, yb)?;
+        }
         let goal = rect(xl, p.narrow_top_um, p.x_step_um, narrow_bottom)?;
         Ok(Fixture { walls, goal, insert_depth_um: default_depth() })
     }
@@ -125,6 +149,20 @@ pub fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Result<ConvexPolygon, Error> 
 mod tests {
     use super::*;
     use crate::geom::Pose;
+
+    #[test]
+    fn the_entrance_chamfer_widens_only_the_mouth() {
+        let f = Fixture::paper();
+        let p = PaperFixtureParams::default();
+        let nt = p.narrow_top_um;
+        // Inside the chamfer, at the step: free space; a chamfer length into the channel: wall.
+        let free = |x: f64, y: f64| f.walls.iter().all(|w| !w.contains(&Vec2::new(x, y), 0.0));
+        assert!(free(p.x_step_um - 1.0, nt - p.chamfer_um / 2.0));
+        assert!(!free(p.x_step_um - p.chamfer_um - 1.0, nt - 1.0));
+        let square = Fixture::paper_with(&PaperFixtureParams { chamfer_um: 0.0, ..p }).unwrap();
+        assert_eq!(square.walls.len(), f.walls.len());
+        assert!(Fixture::paper_with(&PaperFixtureParams { chamfer_um: -1.0, ..p }).is_err());
+    }
 
     #[test]
     fn channels_have_the_paper_widths() {
