@@ -9,6 +9,7 @@
 
 pub mod consistent;
 pub mod data;
+pub mod es;
 pub mod optimize;
 pub mod report;
 pub mod sample;

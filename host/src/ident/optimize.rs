@@ -1,6 +1,6 @@
 //! Beyond the paper: a joint fit of the probe friction, the three support points and
-//! (optionally) the surface friction, by Nelder–Mead with seeded restarts, started from the
-//! sweep's nominal candidate. The objective is the total squared residual over all trials;
+//! (optionally) the surface friction, started from the sweep's nominal candidate: a seeded
+//! evolution strategy ([`super::es`]) and then Nelder–Mead restarts to polish. The objective is the total squared residual over all trials;
 //! each evaluation simulates the trials in parallel and sums them in trial order, so the
 //! result does not depend on thread count.
 //!
@@ -167,7 +167,8 @@ fn simplex_around(x0: &[f64], scale: &[f64], rng: &mut impl Rng) -> Vec<Vec<f64>
     out
 }
 
-/// Fits μ and the supports (and the surface friction if asked) to all `trials` from `start`.
+/// Fits μ and the supports (and the surface friction if asked) to all `trials` from `start`:
+/// the evolution strategy ([`super::es`]) with 70 % of the budget, then Nelder–Mead restarts.
 pub fn optimize(
     trials: &[IdentTrial],
     start: &Candidate,
@@ -178,26 +179,29 @@ pub fn optimize(
 ) -> Optimized {
     let l_um = trials[0].part.char_length_um();
     let mu_s0 = start.support.mu_surface[0];
-    let mut visited = Vec::new();
-    let mut f = |x: &[f64]| {
-        let c = decode(x, l_um, mu_s0);
-        let v = if x.get(7).is_some_and(|m| !(0.01..=2.0).contains(m)) {
-            f64::INFINITY
-        } else {
-            total_sse(trials, &c, score_settings)
-        };
-        visited.push((c, v));
+    let objective = |x: &[f64]| {
         tick();
+        if x.get(7).is_some_and(|m| !(0.01..=2.0).contains(m)) {
+            return f64::INFINITY;
+        }
+        total_sse(trials, &decode(x, l_um, mu_s0), score_settings)
+    };
+    let x0 = encode(start, l_um, settings.fit_surface);
+    let start_sse = objective(&x0);
+    let mut scale: Vec<f64> = x0.iter().map(|_| 0.08).collect();
+    scale[0] = 0.1;
+    let es_budget = settings.max_evals * 7 / 10;
+    let (mut x, mut best, es_evals, es_visited) =
+        super::es::evolve(&objective, &x0, start_sse, &scale, es_budget, rng);
+    let mut visited: Vec<(Candidate, f64)> =
+        es_visited.into_iter().map(|(x, v)| (decode(&x, l_um, mu_s0), v)).collect();
+    let mut evals = 1 + es_evals;
+    let mut f = |x: &[f64]| {
+        let v = objective(x);
+        visited.push((decode(x, l_um, mu_s0), v));
         v
     };
-    let mut x = encode(start, l_um, settings.fit_surface);
-    let start_sse = f(&x);
-    let (mut best, mut evals) = (start_sse, 1usize);
-    let mut scale: Vec<f64> =
-        x.iter().enumerate().map(|(i, _)| if i == 0 { 0.1 } else { 0.08 }).collect();
-    if settings.fit_surface {
-        scale[7] = 0.1;
-    }
+    scale.iter_mut().for_each(|s| *s *= 0.25);
     let runs = settings.restarts.max(1);
     for r in 0..runs {
         let budget = (settings.max_evals.saturating_sub(evals)) / (runs - r);
