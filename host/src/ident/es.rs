@@ -8,6 +8,10 @@
 use rand::{Rng, RngExt};
 use rayon::prelude::*;
 
+/// What [`evolve`] returns: the best point, its value, evaluations used, and every
+/// evaluated point with its value.
+pub type Evolved = (Vec<f64>, f64, usize, Vec<(Vec<f64>, f64)>);
+
 /// Perturbations per generation.
 pub const LAMBDA: usize = 8;
 
@@ -20,7 +24,7 @@ pub fn evolve(
     scale: &[f64],
     budget: usize,
     rng: &mut impl Rng,
-) -> (Vec<f64>, f64, usize, Vec<(Vec<f64>, f64)>) {
+) -> Evolved {
     let (mut x, mut fx) = (x0.to_vec(), f0);
     let mut sigma = 1.0;
     let mut evals = 0;

@@ -63,7 +63,6 @@ pub fn identify(
     ticks: &Ticks<'_>,
 ) -> Result<Report, Error> {
     let sw = sweep(trials, &settings.sweep, &settings.score, rng, ticks.sweep)?;
-    let nominal = sw.candidate(sw.nominal());
     if !sw.total_sse_um2(sw.nominal()).is_finite() {
         return Err(Error::invalid(
             "identify",
@@ -71,9 +70,10 @@ pub fn identify(
              pushes of the part recorded in trial.json?)",
         ));
     }
-    let opt = settings
-        .optimize
-        .as_ref()
-        .map(|o| optimize(trials, &nominal, o, &settings.score, rng, ticks.optimize));
+    let opt = settings.optimize.as_ref().map(|o| {
+        let starts: Vec<Candidate> =
+            sw.ranked(o.starts).into_iter().map(|k| sw.candidate(k)).collect();
+        optimize(trials, &starts, o, &settings.score, rng, ticks.optimize)
+    });
     Report::new(trials, sw, opt, settings)
 }

@@ -29,11 +29,13 @@ pub struct OptimizeSettings {
     pub restarts: usize,
     /// Also fit one surface friction shared by the three supports. Default false.
     pub fit_surface: bool,
+    /// Starts: the sweep's best candidates with distinct supports. Default 4.
+    pub starts: usize,
 }
 
 impl Default for OptimizeSettings {
     fn default() -> Self {
-        Self { max_evals: 600, restarts: 3, fit_surface: false }
+        Self { max_evals: 600, restarts: 3, fit_surface: false, starts: 4 }
     }
 }
 
@@ -167,17 +169,19 @@ fn simplex_around(x0: &[f64], scale: &[f64], rng: &mut impl Rng) -> Vec<Vec<f64>
     out
 }
 
-/// Fits μ and the supports (and the surface friction if asked) to all `trials` from `start`:
-/// the evolution strategy ([`super::es`]) with 70 % of the budget, then Nelder–Mead restarts.
+/// Fits μ and the supports (and the surface friction if asked) to all `trials` from the
+/// `starts` (best first): the evolution strategy ([`super::es`]) from each start with an equal
+/// share of 70 % of the budget, then Nelder–Mead restarts from the best found.
 pub fn optimize(
     trials: &[IdentTrial],
-    start: &Candidate,
+    starts: &[Candidate],
     settings: &OptimizeSettings,
     score_settings: &ScoreSettings,
     rng: &mut impl Rng,
     tick: &(dyn Fn() + Sync),
 ) -> Optimized {
     let l_um = trials[0].part.char_length_um();
+    let start = &starts[0];
     let mu_s0 = start.support.mu_surface[0];
     let objective = |x: &[f64]| {
         tick();
@@ -190,12 +194,19 @@ pub fn optimize(
     let start_sse = objective(&x0);
     let mut scale: Vec<f64> = x0.iter().map(|_| 0.08).collect();
     scale[0] = 0.1;
-    let es_budget = settings.max_evals * 7 / 10;
-    let (mut x, mut best, es_evals, es_visited) =
-        super::es::evolve(&objective, &x0, start_sse, &scale, es_budget, rng);
-    let mut visited: Vec<(Candidate, f64)> =
-        es_visited.into_iter().map(|(x, v)| (decode(&x, l_um, mu_s0), v)).collect();
-    let mut evals = 1 + es_evals;
+    let es_budget = settings.max_evals * 7 / 10 / starts.len().max(1);
+    let (mut x, mut best, mut evals) = (x0, start_sse, 1);
+    let mut visited: Vec<(Candidate, f64)> = Vec::new();
+    for (i, c) in starts.iter().enumerate() {
+        let xs = encode(c, l_um, settings.fit_surface);
+        let fs = if i == 0 { start_sse } else { objective(&xs) };
+        let (xe, fe, used, seen) = super::es::evolve(&objective, &xs, fs, &scale, es_budget, rng);
+        evals += used + usize::from(i > 0);
+        visited.extend(seen.into_iter().map(|(x, v)| (decode(&x, l_um, mu_s0), v)));
+        if fe < best {
+            (x, best) = (xe, fe);
+        }
+    }
     let mut f = |x: &[f64]| {
         let v = objective(x);
         visited.push((decode(x, l_um, mu_s0), v));

@@ -85,6 +85,24 @@ impl Sweep {
         argmin((0..self.n_candidates()).map(|k| self.total_sse_um2(k)))
     }
 
+    /// The `k` candidates with the least total error whose supports differ (best first).
+    pub fn ranked(&self, k: usize) -> Vec<usize> {
+        let mut order: Vec<usize> = (0..self.n_candidates()).collect();
+        let sse: Vec<f64> = order.iter().map(|&c| self.total_sse_um2(c)).collect();
+        order.sort_by(|a, b| sse[*a].total_cmp(&sse[*b]));
+        let n = self.supports.len();
+        let mut out: Vec<usize> = Vec::new();
+        for c in order {
+            if out.len() == k.max(1) || !sse[c].is_finite() {
+                break;
+            }
+            if out.iter().all(|o| o % n != c % n) {
+                out.push(c);
+            }
+        }
+        out
+    }
+
     /// `cross[i][j]`: trial i's best candidate scored on trial j.
     pub fn cross(&self) -> Vec<Vec<Score>> {
         (0..self.scores.len())
