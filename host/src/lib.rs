@@ -6,6 +6,7 @@
 
 pub mod error;
 pub mod geom;
+pub mod ident;
 pub mod lcp;
 pub mod plot;
 pub mod sim;

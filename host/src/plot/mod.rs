@@ -1,5 +1,6 @@
 //! Figures a person would rather look at than read (plotters, PNG and SVG).
 
+pub mod fig5;
 pub mod fig6;
 pub mod fixture_fig;
 

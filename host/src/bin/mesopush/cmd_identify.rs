@@ -1,0 +1,261 @@
+//! `mesopush identify`: identify μ and the three-point support from unconstrained pushing
+//! trials (Table I, cross-trial matrix, nominal model TOML), optionally refine them jointly
+//! and write the set of supports consistent with the data; `--synthesize DIR` writes a demo
+//! dataset of simulated trials with known truth.
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use mesopush_host::geom::{ConvexPolygon, Vec2};
+use mesopush_host::ident::synth::{SynthSpec, demo_truth, hexagon, write_trials};
+use mesopush_host::ident::{
+    IdentTrial, IdentifySettings, OptimizeSettings, ScoreSettings, SweepSettings, Ticks, identify,
+};
+use mesopush_host::plot::fig5::{Fig5Trial, draw_fig5};
+use mesopush_host::sim::{Model, Part, SimSettings};
+use rand::SeedableRng;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Identify probe friction and support distribution from unconstrained pushing trials.
+#[derive(Debug, Args)]
+pub(crate) struct IdentifyArgs {
+    /// Trial directories (each with trial.json, probe.csv, pose.csv), or directories holding
+    /// such trial directories.
+    #[arg(required_unless_present = "synthesize")]
+    trials: Vec<PathBuf>,
+    /// μ grid step over [0, --mu-max].
+    #[arg(long, default_value_t = 0.05)]
+    mu_step: f64,
+    /// Largest μ of the grid.
+    #[arg(long, default_value_t = 1.0)]
+    mu_max: f64,
+    /// Random three-point supports per μ (the paper: 100–150).
+    #[arg(long, default_value_t = 120)]
+    supports: usize,
+    /// Surface friction of the sampled supports.
+    #[arg(long, default_value_t = 0.3)]
+    mu_surface: f64,
+    /// Seed of every random choice (supports, optimiser restarts, synthetic noise).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Refine μ and the support points jointly (Nelder–Mead) from the sweep's nominal.
+    #[arg(long)]
+    optimize: bool,
+    /// Optimiser budget: objective evaluations (each simulates every trial).
+    #[arg(long, default_value_t = 600)]
+    max_evals: usize,
+    /// Let the optimiser fit the (shared) surface friction too.
+    #[arg(long)]
+    fit_surface: bool,
+    /// Probe travel per simulation step, µm.
+    #[arg(long, default_value_t = SimSettings::default().step_um)]
+    step_um: f64,
+    /// Model TOML to write with the chosen parameters.
+    #[arg(long, default_value = "runs/identify/model.toml")]
+    out: PathBuf,
+    /// Supports TOML to write with the consistent set (`[[supports]]` list).
+    #[arg(long, default_value = "runs/identify/supports.toml")]
+    consistent_out: PathBuf,
+    /// Directory for the Fig. 5 figure (best and worst trial, simulation vs measurement).
+    #[arg(long)]
+    fig: Option<PathBuf>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+    /// Write a demo dataset of simulated trials (known truth, tracking noise) to DIR and exit.
+    #[arg(long, value_name = "DIR")]
+    synthesize: Option<PathBuf>,
+    /// Part of the synthetic trials: `peg` (1615 × 985 µm) or `hexagon`.
+    #[arg(long, default_value = "peg")]
+    synth_part: String,
+    /// Scale factor of the synthetic part and push lengths.
+    #[arg(long, default_value_t = 1.0)]
+    synth_scale: f64,
+    /// Probe speed of the synthetic trials, µm/s.
+    #[arg(long, default_value_t = 200.0)]
+    synth_speed_um_s: f64,
+}
+
+fn bar(n: u64, msg: &'static str, hidden: bool) -> ProgressBar {
+    let b = ProgressBar::new(n);
+    if hidden {
+        b.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    if let Ok(style) = ProgressStyle::with_template("{msg:>10} [{bar:40}] {pos}/{len} {eta}") {
+        b.set_style(style.progress_chars("=> "));
+    }
+    b.set_message(msg);
+    b
+}
+
+/// Expands directories holding trial directories into the trials themselves.
+fn trial_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.join("trial.json").exists() {
+            out.push(p.clone());
+            continue;
+        }
+        let rd = std::fs::read_dir(p)
+            .with_context(|| format!("{}: not a trial directory", p.display()))?;
+        let mut sub: Vec<PathBuf> = rd
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|d| d.join("trial.json").exists())
+            .collect();
+        if sub.is_empty() {
+            bail!("{}: no trial.json in it or in its subdirectories", p.display());
+        }
+        sub.sort();
+        out.extend(sub);
+    }
+    Ok(out)
+}
+
+fn synthesize(args: &IdentifyArgs, dir: &Path) -> Result<()> {
+    let s = args.synth_scale;
+    if !(s.is_finite() && s > 0.0) {
+        bail!("--synth-scale must be > 0");
+    }
+    let mut truth = demo_truth();
+    truth.part = match args.synth_part.as_str() {
+        "peg" => truth.part,
+        "hexagon" => hexagon(650.0),
+        other => bail!("--synth-part {other}: use peg or hexagon"),
+    };
+    let verts: Vec<Vec2> = truth.part.polygon().vertices().iter().map(|v| v * s).collect();
+    truth.part = Part::from_polygon(&ConvexPolygon::new(verts)?);
+    truth.support.points_um = truth.support.points_um.map(|[x, y]| [x * s, y * s]);
+    if args.synth_part == "hexagon" {
+        truth.support.points_um =
+            [[-300.0 * s, 250.0 * s], [-150.0 * s, -350.0 * s], [420.0 * s, 60.0 * s]];
+    }
+    truth.validate().context("synthetic truth")?;
+    let mut spec = SynthSpec::paper_like(truth.clone(), 900.0 * s);
+    spec.speed_um_s = args.synth_speed_um_s;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
+    let dirs = write_trials(&spec, dir, &mut rng)?;
+    truth.save(&dir.join("true_model.toml"))?;
+    if args.json {
+        println!("{}", json!({ "trials": dirs, "true_model": truth }));
+    } else {
+        println!(
+            "wrote {} synthetic trials to {} (truth: {})",
+            dirs.len(),
+            dir.display(),
+            dir.join("true_model.toml").display()
+        );
+    }
+    Ok(())
+}
+
+fn settings(args: &IdentifyArgs) -> IdentifySettings {
+    IdentifySettings {
+        sweep: SweepSettings {
+            mu_step: args.mu_step,
+            mu_max: args.mu_max,
+            n_supports: args.supports,
+            mu_surface: args.mu_surface,
+        },
+        optimize: args.optimize.then(|| OptimizeSettings {
+            max_evals: args.max_evals,
+            fit_surface: args.fit_surface,
+            ..OptimizeSettings::default()
+        }),
+        score: ScoreSettings {
+            sim: SimSettings { step_um: args.step_um, ..SimSettings::default() },
+            ..ScoreSettings::default()
+        },
+    }
+}
+
+fn write_parent(path: &Path) -> Result<()> {
+    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
+    }
+    Ok(())
+}
+
+pub(crate) fn run(args: &IdentifyArgs) -> Result<()> {
+    if let Some(dir) = &args.synthesize {
+        return synthesize(args, dir);
+    }
+    let dirs = trial_dirs(&args.trials)?;
+    let trials: Vec<IdentTrial> =
+        dirs.iter().map(|d| IdentTrial::load(d)).collect::<Result<_, _>>()?;
+    let settings = settings(args);
+    let mus = settings.sweep.mus()?.len();
+    let n_sweep = (trials.len() * mus * settings.sweep.n_supports) as u64;
+    let sweep_bar = bar(n_sweep, "sweep", args.json);
+    let opt_bar = bar(
+        if args.optimize { args.max_evals as u64 } else { 0 },
+        "optimize",
+        args.json || !args.optimize,
+    );
+    let ticks = Ticks { sweep: &|| sweep_bar.inc(1), optimize: &|| opt_bar.inc(1) };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
+    let t0 = Instant::now();
+    let report = identify(&trials, &settings, &mut rng, &ticks)?;
+    let runtime_s = t0.elapsed().as_secs_f64();
+    sweep_bar.finish_and_clear();
+    opt_bar.finish_and_clear();
+    let model: Model = report.model(&trials[0], &settings);
+    write_parent(&args.out)?;
+    model.save(&args.out)?;
+    write_parent(&args.consistent_out)?;
+    report.consistent.save(&args.consistent_out)?;
+    let figs = match &args.fig {
+        Some(dir) => figures(&trials, &report, &settings, dir)?,
+        None => Vec::new(),
+    };
+    if args.json {
+        let v = json!({
+            "report": report, "model": model, "model_file": args.out,
+            "consistent": { "count": report.consistent.members.len(), "examined": report.consistent.examined,
+                "mu_range": report.consistent.mu_range, "point_bounds_um": report.consistent.point_bounds_um,
+                "noise_var_um2": report.consistent.noise_var_um2, "threshold_um2": report.consistent.threshold_um2,
+                "file": args.consistent_out },
+            "figures": figs, "runtime_s": runtime_s, "seed": args.seed,
+        });
+        println!("{v}");
+    } else {
+        print!("{}", report.text());
+        println!(
+            "model: {}  consistent supports: {}  ({runtime_s:.1} s)",
+            args.out.display(),
+            args.consistent_out.display()
+        );
+        for f in &figs {
+            println!("figure: {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+/// Fig. 5: the best and the worst trial under the chosen parameters.
+fn figures(
+    trials: &[IdentTrial],
+    report: &mesopush_host::ident::Report,
+    settings: &IdentifySettings,
+    dir: &Path,
+) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let chosen = report.chosen();
+    let costs: Vec<f64> = chosen.per_trial.iter().map(|s| s.cost_um2).collect();
+    let best = mesopush_host::ident::sweep::argmin(costs.iter().copied());
+    let worst = mesopush_host::ident::sweep::argmin(
+        costs.iter().map(|c| if c.is_nan() { 0.0 } else { -c }),
+    );
+    let panels: Vec<Fig5Trial<'_>> = [(best, "best"), (worst, "worst")]
+        .into_iter()
+        .map(|(i, label)| Fig5Trial { trial: &trials[i], label, score: chosen.per_trial[i] })
+        .collect();
+    let mut out = Vec::new();
+    for ext in ["png", "svg"] {
+        let path = dir.join(format!("fig5.{ext}"));
+        draw_fig5(&panels, &chosen.candidate, &settings.score, &path)?;
+        out.push(path);
+    }
+    Ok(out)
+}
