@@ -54,7 +54,9 @@ pub fn follow_path(
     let Some(first) = path.first() else {
         return Err(Error::invalid("probe path", "no waypoints"));
     };
-    if let Some(w) = path.windows(2).find(|w| w[1].t_s.partial_cmp(&w[0].t_s).is_none_or(|o| o.is_lt())) {
+    if let Some(w) =
+        path.windows(2).find(|w| w[1].t_s.partial_cmp(&w[0].t_s).is_none_or(|o| o.is_lt()))
+    {
         return Err(Error::invalid(
             "probe path",
             format!("time goes backwards at t = {} s → {} s", w[0].t_s, w[1].t_s),
@@ -78,8 +80,14 @@ pub fn follow_path(
         peg: st.peg,
         probe_force: 0.0,
     });
+    let mut prev_t_s = first.t_s;
     for w in &path[1..] {
         let delta = w.probe_um - st.probe_um;
+        let dt_s = w.t_s - prev_t_s;
+        prev_t_s = w.t_s;
+        if dt_s > 0.0 {
+            sim.set_probe_speed_um_s(delta.norm() / dt_s);
+        }
         let end = advance(sim, &mut st, delta, &mut budget, |_, info, _| {
             out.steps += 1;
             out.lcp_solves += usize::from(info.solved_lcp);
