@@ -1,6 +1,8 @@
 //! `mesopush`: the host command line. Thin over `mesopush_host`: each subcommand module parses
 //! its flags, calls the library and prints.
 
+mod cmd_diagnose;
+mod cmd_diagnose_confusion;
 mod cmd_lcp;
 mod cmd_render;
 mod cmd_sim;
@@ -26,6 +28,8 @@ enum Command {
     Render(cmd_render::RenderArgs),
     /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
     Track(cmd_track::TrackArgs),
+    /// Diagnose trials: held-out residuals, their structure, the missing effect, before/after.
+    Diagnose(cmd_diagnose::DiagnoseArgs),
 }
 
 /// Runs the command; errors are printed as one `error: …` line (with their causes) and exit
@@ -47,5 +51,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Lcp(args) => cmd_lcp::run(args),
         Command::Render(args) => cmd_render::run(&args),
         Command::Track(args) => cmd_track::run(&args),
+        Command::Diagnose(args) => cmd_diagnose::run(&args),
     }
 }
