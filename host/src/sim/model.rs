@@ -4,6 +4,7 @@
 
 use super::support::SupportDistribution;
 use crate::Error;
+use crate::effects::Effects;
 use crate::geom::{ConvexPolygon, Vec2};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -87,6 +88,10 @@ pub struct Model {
     pub mu_wall: f64,
     /// Probe tip radius, µm (0 allowed). Default 12.5 (a 25 µm tip).
     pub probe_radius_um: f64,
+    /// Effects beyond the nominal model (`[effects]` table; see [`crate::effects`]). Absent
+    /// from a TOML = all off, and then results are bit-identical to the nominal model's.
+    #[serde(default, skip_serializing_if = "Effects::is_none")]
+    pub effects: Effects,
 }
 
 impl Default for Model {
@@ -101,6 +106,7 @@ impl Default for Model {
             mu_probe: 0.8,
             mu_wall: 0.25,
             probe_radius_um: 12.5,
+            effects: Effects::default(),
         }
     }
 }
@@ -120,6 +126,7 @@ impl Model {
                 format!("probe_radius_um = {r} must be in [0, 500]"),
             ));
         }
+        self.effects.validate()?;
         self.support.validate(self.part.polygon())
     }
 

@@ -80,8 +80,14 @@ pub fn follow_path(
         peg: st.peg,
         probe_force: 0.0,
     });
+    let mut prev_t_s = first.t_s;
     for w in &path[1..] {
         let delta = w.probe_um - st.probe_um;
+        let dt_s = w.t_s - prev_t_s;
+        prev_t_s = w.t_s;
+        if dt_s > 0.0 {
+            sim.set_probe_speed_um_s(delta.norm() / dt_s);
+        }
         let end = advance(sim, &mut st, delta, &mut budget, |_, info, _| {
             out.steps += 1;
             out.lcp_solves += usize::from(info.solved_lcp);

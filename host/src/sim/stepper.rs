@@ -69,11 +69,16 @@ pub struct Simulator {
     scratch: Vec<Contact>,
     warm: Vec<bool>,
     warm_kinds: Vec<ContactKind>,
+    probe_speed_um_s: f64,
 }
 
 impl Simulator {
     /// Validates everything and sizes the buffers.
     pub fn new(model: Model, fixture: Fixture, settings: SimSettings) -> Result<Self, Error> {
+        let mut settings = settings;
+        if let Some(c) = model.effects.probe_compliance_um_per_weight {
+            settings.probe_compliance_um = c;
+        }
         settings.validate()?;
         let support_forces = model.validate()?;
         let directions = cone_directions(settings.n_directions);
@@ -92,7 +97,14 @@ impl Simulator {
             scratch: Vec::with_capacity(16),
             warm: Vec::with_capacity(capacity),
             warm_kinds: Vec::with_capacity(16),
+            probe_speed_um_s: 0.0,
         })
+    }
+
+    /// Tells the simulator how fast the probe moves now, µm/s (used only by the
+    /// speed-dependent friction effect; [`super::follow_path`] sets it per segment).
+    pub fn set_probe_speed_um_s(&mut self, speed_um_s: f64) {
+        self.probe_speed_um_s = speed_um_s;
     }
 
     /// The model.
@@ -184,20 +196,65 @@ impl Simulator {
         self.scratch.iter().map(|c| -c.gap_um).fold(0.0, f64::max)
     }
 
-    /// One step without splitting.
+    /// One step without splitting. With adhesion on, a probe retracting from a peg it
+    /// touches first tries to drag the peg (the contact mirrored, pulling); the drag holds
+    /// when it needs no more than the pull-off force.
     fn solve_step(&mut self, state: &mut SimState, delta_um: Vec2) -> Result<StepInfo, Error> {
         let peg = self.model.part.polygon().transformed(&state.peg);
         let margin = self.settings.contact_margin_um + delta_um.norm();
         let r = self.model.probe_radius_um;
-        let mut info = StepInfo::default();
         let Some(probe) = probe_contact(&peg, &state.probe_um, r, margin) else {
             state.probe_um += delta_um;
-            return Ok(info);
+            return Ok(StepInfo::default());
         };
+        if let Some(a) = self.model.effects.adhesion
+            && probe.gap_um <= a.range_um
+            && probe.normal.dot(&delta_um) < 0.0
+        {
+            let before = *state;
+            let pull = Contact { normal: -probe.normal, gap_um: 0.0, ..probe };
+            match self.solve_contacts(state, &peg, pull, delta_um, margin) {
+                Ok(info) if info.probe_force <= a.pull_off_weight => return Ok(info),
+                _ => *state = before,
+            }
+        }
+        self.solve_contacts(state, &peg, probe, delta_um, margin)
+    }
+
+    /// Surface friction at each support now (the model's, changed by the friction patch
+    /// and speed-dependent friction effects when they are on).
+    fn surface_friction(&self, peg: &crate::geom::Pose) -> [f64; 3] {
+        let mut mu = self.model.support.mu_surface;
+        let fx = &self.model.effects;
+        if let Some(patch) = &fx.friction_patch {
+            for (m, p) in mu.iter_mut().zip(self.model.support.points()) {
+                let w = peg.transform_point(&p);
+                if patch.contains([w.x, w.y]) {
+                    *m = patch.mu_surface;
+                }
+            }
+        }
+        if let Some(sf) = &fx.speed_friction {
+            let k = sf.factor(self.probe_speed_um_s);
+            mu.iter_mut().for_each(|m| *m *= k);
+        }
+        mu
+    }
+
+    /// Solves one step with the probe contact `probe` and the walls near `peg`.
+    fn solve_contacts(
+        &mut self,
+        state: &mut SimState,
+        peg: &crate::geom::ConvexPolygon,
+        probe: Contact,
+        delta_um: Vec2,
+        margin: f64,
+    ) -> Result<StepInfo, Error> {
+        let mut info = StepInfo::default();
         self.contacts.clear();
         self.contacts.push((probe, self.model.mu_probe));
         self.scratch.clear();
-        wall_contacts(&peg, &self.fixture.walls, margin, &mut self.scratch);
+        wall_contacts(peg, &self.fixture.walls, margin, &mut self.scratch);
         self.contacts.extend(self.scratch.iter().map(|c| (*c, self.model.mu_wall)));
         let supports = self.model.support.points().map(|p| state.peg.rotate(&p));
         let inputs = StepInputs {
@@ -207,7 +264,7 @@ impl Simulator {
             probe_delta_um: delta_um,
             supports,
             support_forces: self.support_forces,
-            mu_surface: self.model.support.mu_surface,
+            mu_surface: self.surface_friction(&state.peg),
             directions: &self.directions,
             viscosity: self.settings.support_viscosity / self.settings.step_um,
             probe_compliance_um: self.settings.probe_compliance_um,

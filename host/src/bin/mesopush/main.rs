@@ -2,6 +2,8 @@
 //! its flags, calls the library and prints.
 
 mod cmd_identify;
+mod cmd_diagnose;
+mod cmd_diagnose_confusion;
 mod cmd_lcp;
 mod cmd_render;
 mod cmd_sim;
@@ -29,6 +31,8 @@ enum Command {
     Track(cmd_track::TrackArgs),
     /// Identify probe friction and supports from unconstrained pushing trials (Table I).
     Identify(cmd_identify::IdentifyArgs),
+    /// Diagnose trials: held-out residuals, their structure, the missing effect, before/after.
+    Diagnose(cmd_diagnose::DiagnoseArgs),
 }
 
 /// Runs the command; errors are printed as one `error: …` line (with their causes) and exit
@@ -51,5 +55,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => cmd_render::run(&args),
         Command::Track(args) => cmd_track::run(&args),
         Command::Identify(args) => cmd_identify::run(&args),
+        Command::Diagnose(args) => cmd_diagnose::run(&args),
     }
 }

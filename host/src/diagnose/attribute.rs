@@ -1,0 +1,271 @@
+//! Attribution: identify the nominal parameters on the training trials, then fit each
+//! library effect together with them, score every candidate on the held-out trials, and
+//! decide honestly: `none` when the nominal residual is already at the measurement floor,
+//! `effect` when one candidate lowers the held-out error significantly (and wins on BIC),
+//! `unexplained` otherwise.
+
+use super::candidates::{Candidate, NOMINAL};
+use super::data::TrialData;
+use super::fit::{Fit, fit, loss};
+use super::predict::predict;
+use super::residual::{Mse, Noise, Residual};
+use crate::Error;
+use crate::sim::{Model, SimSettings};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// Knobs of a diagnosis (defaults for a real batch; tests shrink the budgets).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Simplex evaluations for the nominal fit.
+    pub nominal_evals: usize,
+    /// Evaluations (start grid included) for each effect fit.
+    pub effect_evals: usize,
+    /// Candidates to try.
+    pub candidates: Vec<Candidate>,
+    /// Simulator settings.
+    pub settings: SimSettings,
+    /// Smallest relative drop of the held-out error that counts (0.3 = 30 %).
+    pub min_gain: f64,
+    /// The nominal residual counts as at the floor below this many times the floor.
+    pub floor_factor: f64,
+    /// Smallest BIC improvement on the training trials that counts.
+    pub min_delta_bic: f64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            nominal_evals: 120,
+            effect_evals: 80,
+            candidates: Candidate::EFFECTS.to_vec(),
+            settings: SimSettings::default(),
+            min_gain: 0.3,
+            floor_factor: 3.0,
+            min_delta_bic: 10.0,
+        }
+    }
+}
+
+/// What a diagnosis concluded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// A library effect explains the residual.
+    Effect,
+    /// The residual is above the floor and no candidate explains it.
+    Unexplained,
+    /// The residual is at the measurement floor: no missing effect.
+    None,
+}
+
+/// One candidate's fit and held-out score.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Score {
+    /// The candidate.
+    pub candidate: Candidate,
+    /// Fitted parameters: name, value, 1σ (NaN when not estimated).
+    pub params: Vec<(String, f64, f64)>,
+    /// BIC on the training trials.
+    pub bic: f64,
+    /// Held-out errors.
+    pub heldout: Mse,
+    /// Held-out error in noise units.
+    pub heldout_norm: f64,
+}
+
+/// A whole diagnosis.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    /// The verdict.
+    pub verdict: Verdict,
+    /// The winning effect, when the verdict is `effect`.
+    pub effect: Option<Candidate>,
+    /// Nominal fit, then one score per candidate tried.
+    pub scores: Vec<Score>,
+    /// The nominal fit.
+    pub nominal: Fit,
+    /// The winning extended fit (the nominal one when no effect was found).
+    pub best: Fit,
+    /// Measurement floor.
+    pub noise: Noise,
+    /// Training and held-out trial ids.
+    pub split: (Vec<String>, Vec<String>),
+    /// Held-out residuals before (nominal) and after (extended model).
+    pub residuals: (Vec<Residual>, Vec<Residual>),
+    /// Held-out trials.
+    pub heldout: Vec<TrialData>,
+}
+
+/// The starting model for a batch's part: the default model for the paper's peg, else a
+/// symmetric support inside the part.
+pub fn base_model(part: &crate::sim::Part) -> Model {
+    let default = Model::default();
+    if *part == default.part {
+        return default;
+    }
+    let (lo, hi) = part.polygon().bounds();
+    let support = crate::sim::SupportDistribution::symmetric(
+        0.25 * (hi.x - lo.x) / 2.0,
+        0.5 * (hi.y - lo.y) / 2.0,
+        0.3,
+    );
+    Model { part: part.clone(), support, ..default }
+}
+
+/// Held-out residuals of `model`; a trial it cannot simulate is an error naming it.
+pub fn residuals(
+    trials: &[TrialData],
+    model: &Model,
+    s: &SimSettings,
+) -> Result<Vec<Residual>, Error> {
+    trials
+        .iter()
+        .map(|t| {
+            let p = predict(t, model, s).map_err(|e| {
+                Error::invalid("diagnose", format!("trial {} cannot be simulated: {e}", t.id))
+            })?;
+            Ok(Residual::new(t, &p))
+        })
+        .collect()
+}
+
+/// Start vectors: the nominal optimum with each combination of the effect's grid values
+/// (patch rectangles from the training workspace).
+fn starts(c: Candidate, nominal: &[f64], train: &[TrialData]) -> Vec<Vec<f64>> {
+    if c == Candidate::FrictionPatch {
+        return super::structure::patch_starts(nominal, train);
+    }
+    let mut out = vec![nominal.to_vec()];
+    for p in c.effect_params() {
+        let grid = if p.grid.is_empty() { &[0.0][..] } else { p.grid };
+        out = out
+            .iter()
+            .flat_map(|v| grid.iter().map(move |g| [v.as_slice(), &[*g]].concat()))
+            .collect();
+    }
+    out
+}
+
+fn bic(f: &Fit) -> f64 {
+    let n = f.n as f64;
+    n * (f.loss / n).max(1e-300).ln() + f.values.len() as f64 * n.ln()
+}
+
+/// Runs the whole diagnosis on `train` and `heldout` trials.
+pub fn diagnose(
+    train: &[TrialData],
+    heldout: &[TrialData],
+    opts: &Options,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<Diagnosis, Error> {
+    if train.is_empty() || heldout.is_empty() {
+        return Err(Error::invalid(
+            "diagnose",
+            "needs at least one training and one held-out trial",
+        ));
+    }
+    let base = base_model(&train[0].part);
+    let all: Vec<TrialData> = train.iter().chain(heldout).cloned().collect();
+    let noise = Noise::estimate(&all);
+    let with_tip = all.iter().any(TrialData::has_tips);
+    let s = &opts.settings;
+    progress("nominal");
+    let x0 = vec![base.mu_probe, base.support.mu_surface[0], 0.0, 0.0];
+    let nominal = fit(Candidate::Nominal, &base, train, s, &noise, &[x0], opts.nominal_evals);
+    let before = residuals(heldout, &nominal.model, s)?;
+    let mse0 = Mse::of(&before);
+    let e0 = mse0.normalised(&noise, with_tip);
+    let fits: Vec<Fit> = opts
+        .candidates
+        .par_iter()
+        .map(|&c| {
+            progress(c.name());
+            let st = starts(c, &nominal.values, train);
+            fit(c, &base, train, s, &noise, &st, opts.effect_evals.max(st.len() + 4))
+        })
+        .collect();
+    let mut scores = vec![score(&nominal, heldout, s, &noise, with_tip)];
+    for f in &fits {
+        scores.push(score(f, heldout, s, &noise, with_tip));
+    }
+    let floor = 2.0 + if with_tip { 1.0 } else { 0.0 };
+    let bic0 = scores[0].bic;
+    let winner = scores[1..]
+        .iter()
+        .zip(&fits)
+        .filter(|(sc, _)| sc.bic < bic0 - opts.min_delta_bic)
+        .min_by(|a, b| a.0.heldout_norm.total_cmp(&b.0.heldout_norm));
+    let (verdict, best) = if e0 <= opts.floor_factor * floor {
+        (Verdict::None, None)
+    } else {
+        match winner {
+            Some((sc, f)) if sc.heldout_norm <= (1.0 - opts.min_gain) * e0 => {
+                (Verdict::Effect, Some(f))
+            }
+            _ => (Verdict::Unexplained, None),
+        }
+    };
+    let best = best.cloned().unwrap_or_else(|| nominal.clone());
+    let after = residuals(heldout, &best.model, s)?;
+    attach_uncertainty(&best, &base, &mut scores, train, s, &noise);
+    Ok(Diagnosis {
+        verdict,
+        effect: (verdict == Verdict::Effect).then_some(best.candidate),
+        scores,
+        nominal,
+        best,
+        noise,
+        split: (
+            train.iter().map(|t| t.id.clone()).collect(),
+            heldout.iter().map(|t| t.id.clone()).collect(),
+        ),
+        residuals: (before, after),
+        heldout: heldout.to_vec(),
+    })
+}
+
+fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bool) -> Score {
+    let heldout_mse = match residuals(heldout, &f.model, s) {
+        Ok(r) => Mse::of(&r),
+        Err(_) => Mse { xy_um2: f64::INFINITY, theta_rad2: f64::INFINITY, tip_um2: f64::INFINITY },
+    };
+    let names = f.candidate.params();
+    Score {
+        candidate: f.candidate,
+        params: names
+            .iter()
+            .zip(&f.values)
+            .map(|(p, v)| (p.name.to_string(), *v, f64::NAN))
+            .collect(),
+        bic: bic(f),
+        heldout: heldout_mse,
+        heldout_norm: heldout_mse.normalised(noise, tip),
+    }
+}
+
+/// 1σ of each effect parameter of the winner from the loss's curvature along it (the loss
+/// is a χ², scaled by the reduced χ² so a misfit widens the interval).
+fn attach_uncertainty(
+    best: &Fit,
+    base: &Model,
+    scores: &mut [Score],
+    train: &[TrialData],
+    s: &SimSettings,
+    noise: &Noise,
+) {
+    let params = best.candidate.params();
+    let red = (best.loss / best.n as f64).max(1.0);
+    let Some(sc) = scores.iter_mut().find(|sc| sc.candidate == best.candidate) else { return };
+    for i in NOMINAL.len()..params.len() {
+        let h = params[i].step * 0.5;
+        let at = |d: f64| {
+            let mut v = best.values.clone();
+            v[i] += d;
+            loss(train, &best.candidate.apply(base, &v), s, noise).0
+        };
+        let (lm, lp) = (at(-h), at(h));
+        let curv = (lp - 2.0 * best.loss + lm) / (h * h);
+        sc.params[i].2 = if curv > 0.0 { (2.0 * red / curv).sqrt() } else { f64::INFINITY };
+    }
+}

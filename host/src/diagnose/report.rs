@@ -1,0 +1,123 @@
+//! What a diagnosis reports: the verdict, the Table I of held-out errors before and after,
+//! the fitted parameters with their uncertainty, the residual's structure, the JSON summary
+//! and the before/after residual plots.
+
+use super::attribute::{Diagnosis, Verdict};
+use super::residual::Mse;
+use super::structure::Structure;
+use crate::Error;
+use plotters::prelude::*;
+use serde_json::{Value, json};
+use std::path::Path;
+
+/// Held-out errors before (nominal) and after (extended model).
+pub fn mse_before_after(d: &Diagnosis) -> (Mse, Mse) {
+    (Mse::of(&d.residuals.0), Mse::of(&d.residuals.1))
+}
+
+/// The report as text (markdown).
+pub fn text(d: &Diagnosis) -> String {
+    let (b, a) = mse_before_after(d);
+    let mut s = String::new();
+    let verdict = match d.verdict {
+        Verdict::Effect => format!("effect: {}", d.best.candidate.name()),
+        Verdict::Unexplained => "unexplained: no library effect explains the residual".into(),
+        Verdict::None => {
+            "none: the residual is at the measurement floor; no missing effect found".into()
+        }
+    };
+    s += &format!("verdict: {verdict}\n");
+    s += &format!("train: {}\nheld out: {}\n", d.split.0.join(", "), d.split.1.join(", "));
+    if let Some(e) = d.effect {
+        s += &format!("signature: {}\n", e.signature());
+    }
+    s += "\n| held-out | before | after |\n|---|---|---|\n";
+    s += &format!("| X,Y MSE (µm²) | {:.3} | {:.3} |\n", b.xy_um2, a.xy_um2);
+    s += &format!("| θ MSE (rad²) | {:.3e} | {:.3e} |\n", b.theta_rad2, a.theta_rad2);
+    s += &format!("| tip MSE (µm²) | {:.3} | {:.3} |\n", b.tip_um2, a.tip_um2);
+    s += "\nparameters (value ± 1σ):\n";
+    if let Some(sc) = d.scores.iter().find(|s| s.candidate == d.best.candidate) {
+        for (n, v, e) in &sc.params {
+            s += &format!("  {n} = {v:.5} ± {e:.2}\n");
+        }
+    }
+    s += "\ncandidates (train BIC, held-out error in noise units; floor ≈ 2–3):\n";
+    for sc in &d.scores {
+        s += &format!(
+            "  {:<18} BIC {:>12.1}  held-out {:>10.2}\n",
+            sc.candidate.name(),
+            sc.bic,
+            sc.heldout_norm
+        );
+    }
+    s += &format!("\nresidual before: {}\n", Structure::of(&d.residuals.0).describe(&d.noise));
+    s += &format!("residual after:  {}\n", Structure::of(&d.residuals.1).describe(&d.noise));
+    s
+}
+
+/// The `--json` summary.
+pub fn json(d: &Diagnosis) -> Value {
+    let (b, a) = mse_before_after(d);
+    let params: serde_json::Map<String, Value> = d
+        .scores
+        .iter()
+        .find(|s| s.candidate == d.best.candidate)
+        .map(|sc| {
+            sc.params
+                .iter()
+                .map(|(n, v, e)| (n.clone(), json!({"value": v, "sigma": if e.is_finite() { json!(e) } else { Value::Null }})))
+                .collect()
+        })
+        .unwrap_or_default();
+    json!({
+        "verdict": d.verdict,
+        "effect": d.effect.map(|e| e.name()),
+        "signature": d.effect.map(|e| e.signature()),
+        "parameters": params,
+        "mse_before": {"xy_um2": b.xy_um2, "theta_rad2": b.theta_rad2, "tip_um2": b.tip_um2},
+        "mse_after": {"xy_um2": a.xy_um2, "theta_rad2": a.theta_rad2, "tip_um2": a.tip_um2},
+        "noise": d.noise,
+        "train": d.split.0,
+        "heldout": d.split.1,
+        "candidates": d.scores.iter().map(|s| json!({
+            "name": s.candidate.name(), "bic": s.bic, "heldout_norm": s.heldout_norm,
+            "heldout": s.heldout})).collect::<Vec<_>>(),
+        "structure_before": Structure::of(&d.residuals.0),
+        "structure_after": Structure::of(&d.residuals.1),
+    })
+}
+
+/// Held-out peg position residuals over time, before (top) and after (bottom), as PNG.
+pub fn plot(d: &Diagnosis, path: &Path) -> Result<(), Error> {
+    let err =
+        |e: &dyn std::fmt::Display| Error::Parse { path: path.into(), message: e.to_string() };
+    let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let panels = root.split_evenly((2, 1));
+    for (panel, (title, res)) in panels
+        .iter()
+        .zip([("before (nominal)", &d.residuals.0), ("after (extended)", &d.residuals.1)])
+    {
+        let pts = |a: usize| -> Vec<(f64, f64)> {
+            res.iter().flat_map(|r| r.frames.iter().map(move |f| (f.t_s, f.peg[a]))).collect()
+        };
+        let (x, y) = (pts(0), pts(1));
+        let tmax = x.iter().map(|p| p.0).fold(1.0, f64::max);
+        let lim = x.iter().chain(&y).map(|p| p.1.abs()).fold(1.0, f64::max);
+        let mut ch = ChartBuilder::on(panel)
+            .caption(format!("held-out residual {title}"), ("sans-serif", 18))
+            .margin(8)
+            .x_label_area_size(30)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0.0..tmax, -lim..lim)
+            .map_err(|e| err(&e))?;
+        ch.configure_mesh().x_desc("t (s)").y_desc("µm").draw().map_err(|e| err(&e))?;
+        ch.draw_series(x.iter().map(|p| Circle::new(*p, 1, RED.filled())))
+            .map_err(|e| err(&e))?
+            .label("x");
+        ch.draw_series(y.iter().map(|p| Circle::new(*p, 1, BLUE.filled())))
+            .map_err(|e| err(&e))?
+            .label("y");
+    }
+    root.present().map_err(|e| err(&e))
+}
