@@ -83,6 +83,7 @@ pub fn model_for(trial: &IdentTrial, c: &Candidate, settings: &ScoreSettings) ->
         mu_probe: c.mu_probe,
         mu_wall: settings.mu_wall,
         probe_radius_um: trial.probe_radius_um,
+        effects: Default::default(),
     }
 }
 
