@@ -303,7 +303,7 @@ impl LcpSolver {
         for zi in &mut self.z[p.n_free..n] {
             *zi = zi.max(0.0);
         }
-        verify::check(p, &self.z[..n], &mut self.w[..n])
+        verify::check_finite(p, &self.z[..n], &mut self.w[..n])
     }
 }
 
