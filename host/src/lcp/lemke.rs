@@ -1,4 +1,6 @@
 //! Lexicographic Lemke (complementary pivoting) on a dense dictionary, with free variables.
+//! The dictionary's columns are updated lazily (see `columns`): a pivot touches `b` and
+//! records its pivot column, and only the columns Lemke reads are brought up to date.
 //!
 //! The dictionary is `x_B = b + T x_N` with `n` basic variables (rows) and `n + 1` nonbasic
 //! ones (columns). Variables are numbered `w_i = i`, `z_i = n + i`, the artificial `z0 = 2n`.
@@ -10,6 +12,7 @@
 
 use super::MlcpProblem;
 
+mod columns;
 mod free_block;
 
 /// How a Lemke run ended.
@@ -34,14 +37,31 @@ pub(crate) enum Cover {
     Spread(u32),
 }
 
-/// The dense dictionary and all of Lemke's workspaces.
+/// The dictionary, stored by columns and brought up to date lazily, and all of Lemke's
+/// workspaces.
+///
+/// Column slot `j` holds `T[·][j]` (`n` entries, contiguous) as of `ver[j]` pivots of the
+/// current eta file; a pivot only updates `b` and records its pivot column (the eta), and a
+/// column is brought up to date ([`Tableau::refresh`]) when a ratio test needs it. Columns of
+/// `z` not yet touched are copied from `M` on first use. Each update applies exactly the
+/// arithmetic of a full tableau pivot, so the results are bit-identical to one.
 #[derive(Debug, Default)]
 pub(crate) struct Tableau {
     n: usize,
     nf: usize,
-    t: Vec<f64>,
+    /// Column-major `T`, `n + 1` slots of `n` entries.
+    cols: Vec<f64>,
+    /// Eta-file pivots applied to each slot, or [`UNLOADED`].
+    ver: Vec<usize>,
+    /// Pivot columns (before their pivot), `n` entries each, oldest first.
+    etas: Vec<f64>,
+    eta_row: Vec<usize>,
+    eta_inv: Vec<f64>,
+    /// Pivots in the eta file; at capacity it is flushed into every column.
+    neta: usize,
+    /// The equality rows of `T` during the free block pivot (row-major, `n + 1` wide).
+    eq_rows: Vec<f64>,
     b: Vec<f64>,
-    prow: Vec<f64>,
     basic: Vec<usize>,
     nonbasic: Vec<usize>,
     is_basic: Vec<bool>,
@@ -57,6 +77,9 @@ pub(crate) struct Tableau {
     pivot_tol: f64,
 }
 
+/// `ver` of a slot whose column has not been copied from `M` yet.
+const UNLOADED: usize = usize::MAX;
+
 impl Tableau {
     /// Sizes every buffer for problems up to `cap` variables.
     pub(crate) fn with_capacity(cap: usize) -> Self {
@@ -67,9 +90,13 @@ impl Tableau {
 
     /// Grows the buffers (only allocates when `cap` exceeds what they hold).
     pub(crate) fn reserve(&mut self, cap: usize) {
-        self.t.resize(cap * (cap + 1), 0.0);
+        self.cols.resize(cap * (cap + 1), 0.0);
+        self.ver.resize(cap + 1, UNLOADED);
+        self.etas.resize(cap * eta_capacity(cap), 0.0);
+        self.eta_row.resize(eta_capacity(cap), 0);
+        self.eta_inv.resize(eta_capacity(cap), 0.0);
+        self.eq_rows.resize(cap * (cap + 1), 0.0);
         self.b.resize(cap, 0.0);
-        self.prow.resize(cap + 1, 0.0);
         self.basic.resize(cap, 0);
         self.nonbasic.resize(cap + 1, 0);
         self.is_basic.resize(2 * cap + 1, false);
@@ -81,21 +108,18 @@ impl Tableau {
         self.cand.reserve(cap.saturating_sub(self.cand.capacity()));
     }
 
-    /// Loads `w = q + M z + d z0` with every `w` basic. Returns `false` if `M` or `q` holds a
-    /// non-finite value (checked here, in the copy, rather than in a separate pass).
+    /// Starts `w = q + M z + d z0` with every `w` basic (the columns of `M` are copied when
+    /// first needed). Returns `false` if `M` or `q` holds a non-finite value.
     pub(crate) fn load(&mut self, p: &MlcpProblem<'_>, pivot_tol: f64) -> bool {
         let n = p.n;
         self.reserve(n);
         self.n = n;
         self.nf = p.n_free;
         self.pivot_tol = pivot_tol;
-        let s = n + 1;
-        self.width = s;
+        self.width = n + 1;
+        self.neta = 0;
+        self.b[..n].copy_from_slice(p.q);
         for i in 0..n {
-            let row = &mut self.t[i * s..(i + 1) * s];
-            row[..n].copy_from_slice(&p.m[i * n..(i + 1) * n]);
-            row[n] = 1.0;
-            self.b[i] = p.q[i];
             self.basic[i] = i;
             self.is_basic[i] = true;
             self.slot[i] = i;
@@ -106,74 +130,42 @@ impl Tableau {
             self.is_basic[n + j] = false;
             self.slot[n + j] = j;
         }
+        self.ver[..=n].fill(UNLOADED);
         all_finite(p.m) && all_finite(p.q)
     }
 
-    /// Exchanges the basic variable of row `r` with the nonbasic one of column `c`.
-    /// Also gathers column `next` (after the update, zero on free rows) into `acol` for the
-    /// next ratio test, when `next < width`.
-    fn pivot(&mut self, r: usize, c: usize, next: usize) {
-        let (s, width) = (self.n + 1, self.width);
-        let gather = next < width;
-        debug_assert!(c < width);
-        let inv = 1.0 / self.t[r * s + c];
-        let prow = &mut self.prow[..width];
-        for (dst, src) in prow.iter_mut().zip(&self.t[r * s..r * s + width]) {
-            *dst = -src * inv;
-        }
-        prow[c] = inv;
-        let br = -self.b[r] * inv;
-        let (t, b) = (&mut self.t[..self.n * s], &mut self.b[..self.n]);
-        for (i, row) in t.chunks_exact_mut(s).enumerate() {
-            let f = row[c];
-            if i != r && f != 0.0 {
-                let row = &mut row[..width];
-                row[c] = 0.0;
-                for (x, pv) in row.iter_mut().zip(prow.iter()) {
-                    *x += f * pv;
-                }
-                b[i] += f * br;
-            }
-        }
-        t[r * s..r * s + width].copy_from_slice(prow);
-        b[r] = br;
-        if gather {
-            self.gather_column(next);
-        }
-        let (vin, vout) = (self.nonbasic[c], self.basic[r]);
-        self.basic[r] = vin;
-        self.nonbasic[c] = vout;
-        self.is_basic[vin] = true;
-        self.slot[vin] = r;
-        self.is_basic[vout] = false;
-        self.slot[vout] = c;
-    }
-
-    /// Runs lexicographic Lemke from the current (complementary) basis. Returns how it ended
-    /// and the pivots spent.
-    pub(crate) fn lemke(&mut self, max_pivots: usize, cover: Cover) -> (LemkeEnd, usize) {
-        let (n, s) = (self.n, self.n + 1);
+    /// Runs lexicographic Lemke from the current (complementary) basis on the problem whose
+    /// `M` (row-major `n × n`) was loaded. Returns how it ended and the pivots spent.
+    pub(crate) fn lemke(
+        &mut self,
+        m: &[f64],
+        max_pivots: usize,
+        cover: Cover,
+    ) -> (LemkeEnd, usize) {
+        let n = self.n;
         let z0_col = self.slot[2 * n];
         self.lex.clear();
         let mut most_neg: Option<usize> = None;
         let mut k = 0;
+        let d = &mut self.cols[z0_col * n..(z0_col + 1) * n];
         for r in 0..n {
             if self.free_row[r] {
-                self.t[r * s + z0_col] = 0.0;
+                d[r] = 0.0;
                 continue;
             }
-            self.t[r * s + z0_col] = match cover {
+            d[r] = match cover {
                 Cover::Ones => 1.0,
                 Cover::Spread(attempt) => spread_entry(attempt, k),
             };
             k += 1;
             self.lex.push(self.basic[r]);
-            let ratio = self.b[r] / self.t[r * s + z0_col];
+            let ratio = self.b[r] / d[r];
             // Ties go to the later row: that keeps the rows lexicographically positive.
-            if ratio < 0.0 && most_neg.is_none_or(|m| ratio <= self.b[m] / self.t[m * s + z0_col]) {
+            if ratio < 0.0 && most_neg.is_none_or(|m| ratio <= self.b[m] / d[m]) {
                 most_neg = Some(r);
             }
         }
+        self.ver[z0_col] = self.neta;
         let Some(mut r) = most_neg else {
             return (LemkeEnd::Solved, 0);
         };
@@ -184,47 +176,49 @@ impl Tableau {
                 return (LemkeEnd::Limit, pivots);
             }
             let leaving = self.basic[r];
-            // The next entering variable is the complement of the one leaving now; its column
-            // does not move in this pivot, so the pivot can gather it.
+            // The next entering variable is the complement of the one leaving now.
             let next = match leaving {
                 v if v == 2 * n => usize::MAX,
                 v if v < n => self.slot[v + n],
                 v => self.slot[v - n],
             };
-            self.pivot(r, c, next);
+            self.pivot(r, c, m);
             pivots += 1;
             if leaving == 2 * n {
                 return (LemkeEnd::Solved, pivots);
             }
             c = next;
-            match self.leaving_row(c) {
+            match self.leaving_row(c, m) {
                 Some(row) => r = row,
                 None => return (LemkeEnd::Ray, pivots),
             }
         }
     }
 
-    /// Copies `−T[·][c]` (zero on free rows) into `acol`, with the largest `|acol|` and the
-    /// largest `|b|` over the complementarity rows, for the next ratio test.
-    fn gather_column(&mut self, c: usize) {
-        let (n, s) = (self.n, self.n + 1);
+    /// Brings column `c` up to date and copies `−T[·][c]` (zero on free rows) into `acol`,
+    /// with the largest `|acol|` and the largest `|b|` over the complementarity rows, for the
+    /// next ratio test.
+    fn gather_column(&mut self, c: usize, m: &[f64]) {
+        let n = self.n;
+        self.refresh(c, m);
         let (mut col_max, mut b_max) = (0.0f64, 0.0f64);
-        for i in 0..n {
-            let m = self.comp_mask[i];
-            let a = -self.t[i * s + c] * m;
-            self.acol[i] = a;
-            let (a, b) = (a.abs(), self.b[i].abs() * m);
+        let col = &self.cols[c * n..(c + 1) * n];
+        let rows = self.acol[..n].iter_mut().zip(col).zip(&self.comp_mask[..n]).zip(&self.b[..n]);
+        for (((dst, &t), &mask), &b) in rows {
+            let a = -t * mask;
+            *dst = a;
+            let (a, b) = (a.abs(), b.abs() * mask);
             col_max = if a > col_max { a } else { col_max };
             b_max = if b > b_max { b } else { b_max };
         }
         (self.col_max, self.b_max) = (col_max, b_max);
     }
 
-    /// The lexicographic minimum-ratio row for entering column `c` (gathered into `acol` by
-    /// [`Self::gather_column`]), `z0` first among ties. One pass keeps every row that ties
-    /// with the best ratio so far (up to rounding noise in `b`); a short filter then keeps
-    /// those that tie with the final one.
-    fn leaving_row(&mut self, c: usize) -> Option<usize> {
+    /// The lexicographic minimum-ratio row for entering column `c`, `z0` first among ties.
+    /// One pass keeps every row that ties with the best ratio so far (up to rounding noise in
+    /// `b`); a short filter then keeps those that tie with the final one.
+    fn leaving_row(&mut self, c: usize, m: &[f64]) -> Option<usize> {
+        self.gather_column(c, m);
         let n = self.n;
         let eps = self.pivot_tol * self.col_max;
         let tol_b = 1e-11 * self.b_max;
@@ -252,30 +246,34 @@ impl Tableau {
             if let Some(&i) = self.cand.iter().find(|&&i| self.basic[i] == 2 * n) {
                 return Some(i);
             }
-            self.lex_break(c);
+            self.lex_break(c, m);
         }
         self.cand.first().copied()
     }
 
     /// The `B⁻¹` entry (row `i`, column of the `k`-th starting basic variable) over the pivot
-    /// entry of row `i` in column `c`.
+    /// entry of row `i` in column `c` (both columns up to date).
     fn lex_value(&self, k: usize, i: usize, c: usize) -> f64 {
-        let s = self.n + 1;
+        let n = self.n;
         let v = self.lex[k];
         let e = if self.is_basic[v] {
             if self.slot[v] == i { 1.0 } else { 0.0 }
         } else {
-            -self.t[i * s + self.slot[v]]
+            -self.cols[self.slot[v] * n + i]
         };
-        e / -self.t[i * s + c]
+        e / -self.cols[c * n + i]
     }
 
     /// Narrows `cand` to the lexicographic minimum of `B⁻¹` rows over the pivot entries.
     /// Entries that are zero in exact arithmetic carry rounding noise, so "equal" means
     /// within `1e-10` of the largest such ratio over all candidates and columns.
-    fn lex_break(&mut self, c: usize) {
+    fn lex_break(&mut self, c: usize, m: &[f64]) {
         let mut scale = 0.0f64;
         for k in 0..self.lex.len() {
+            let v = self.lex[k];
+            if !self.is_basic[v] {
+                self.refresh(self.slot[v], m);
+            }
             for &i in &self.cand {
                 scale = scale.max(self.lex_value(k, i, c).abs());
             }
@@ -313,6 +311,11 @@ impl Tableau {
             *a = self.is_basic[self.n + j];
         }
     }
+}
+
+/// Eta-file capacity for problems of `n` variables: past it, the file is flushed.
+fn eta_capacity(n: usize) -> usize {
+    n + 8
 }
 
 /// `v * 0` is NaN exactly when `v` is not finite; four independent lanes let the compiler

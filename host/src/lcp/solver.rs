@@ -270,9 +270,9 @@ impl LcpSolver {
         }
         let block = self
             .tab
-            .make_free_basic()
+            .make_free_basic(sp.m)
             .ok_or(LcpFailure::SingularEqualities { n_free: p.n_free })?;
-        let (end, spent) = self.tab.lemke(self.settings.max_pivots, cover);
+        let (end, spent) = self.tab.lemke(sp.m, self.settings.max_pivots, cover);
         *pivots += block + spent;
         if end != LemkeEnd::Solved {
             return Ok(Attempt::Ended(end));
@@ -303,7 +303,7 @@ impl LcpSolver {
         for zi in &mut self.z[p.n_free..n] {
             *zi = zi.max(0.0);
         }
-        verify::check(p, &self.z[..n], &mut self.w[..n])
+        verify::check_finite(p, &self.z[..n], &mut self.w[..n])
     }
 }
 

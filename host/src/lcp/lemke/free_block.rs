@@ -10,45 +10,67 @@
 use super::Tableau;
 
 impl Tableau {
-    /// Largest `|T[r][c]|` over rows whose basic variable passes `row_ok` and columns whose
-    /// nonbasic variable passes `col_ok` (few rows qualify: they are gathered first).
+    /// Largest `|T[r][c]|` over the rows in `cand` and the columns whose nonbasic variable
+    /// passes `col_ok`; `row_major` reads the equality rows kept in `eq_rows`, otherwise the
+    /// (refreshed) columns are read.
     fn best_pivot(
         &mut self,
-        row_ok: impl Fn(&Self, usize) -> bool,
+        m: &[f64],
+        row_major: bool,
         col_ok: impl Fn(usize) -> bool,
     ) -> Option<(usize, usize, f64)> {
-        let s = self.n + 1;
-        self.cand.clear();
-        for r in 0..self.n {
-            if row_ok(self, self.basic[r]) {
-                self.cand.push(r);
-            }
-        }
+        let (n, s) = (self.n, self.n + 1);
         let (mut best, mut best_a) = (None, -1.0);
-        for c in 0..self.n {
+        for c in 0..n {
             if !col_ok(self.nonbasic[c]) {
                 continue;
             }
+            if !row_major {
+                self.refresh(c, m);
+            }
             for &r in &self.cand {
-                let a = self.t[r * s + c].abs();
-                if a > best_a {
-                    (best, best_a) = (Some((r, c)), a);
+                let t = if row_major { self.eq_rows[r * s + c] } else { self.cols[c * n + r] };
+                if t.abs() > best_a {
+                    (best, best_a) = (Some((r, c)), t.abs());
                 }
             }
         }
         best.map(|(r, c)| (r, c, best_a))
     }
 
+    /// Phase A's view of a pivot on `(r, c)`: the dense pivot's update of the other equality
+    /// rows still basic (`cand`), which phase A reads row by row.
+    fn pivot_eq_rows(&mut self, r: usize, c: usize) {
+        let s = self.n + 1;
+        let (width, inv) = (self.width, 1.0 / self.eq_rows[r * s + c]);
+        for k in 0..self.cand.len() {
+            let i = self.cand[k];
+            if i == r {
+                continue;
+            }
+            let f = self.eq_rows[i * s + c];
+            if f == 0.0 {
+                continue;
+            }
+            let (lo, hi) = (i.min(r), i.max(r));
+            let (head, tail) = self.eq_rows.split_at_mut(hi * s);
+            let (lo_row, hi_row) = (&mut head[lo * s..lo * s + width], &mut tail[..width]);
+            let (row, prow) = if i < r { (lo_row, hi_row) } else { (hi_row, lo_row) };
+            for (x, p) in row.iter_mut().zip(prow.iter()) {
+                *x += f * (-p * inv);
+            }
+            row[c] = f * inv;
+        }
+    }
+
     /// Block-pivots the free variables into the basis and the equality slacks out, keeping
-    /// one variable of every complementary pair basic. Returns the pivots spent, or `None`
-    /// when the free block is singular.
-    pub(crate) fn make_free_basic(&mut self) -> Option<usize> {
+    /// one variable of every complementary pair basic, on the loaded problem with matrix `m`.
+    /// Returns the pivots spent, or `None` when the free block is singular.
+    pub(crate) fn make_free_basic(&mut self, m: &[f64]) -> Option<usize> {
         let (n, nf) = (self.n, self.nf);
-        // Scale of the coupling blocks (free rows and free columns of M, still untouched).
-        let s = n + 1;
+        // Scale of the coupling blocks (free rows and free columns of M).
         let mut scale = f64::MIN_POSITIVE;
-        for i in 0..n {
-            let row = &self.t[i * s..i * s + n];
+        for (i, row) in m.chunks_exact(n.max(1)).enumerate() {
             let part = if i < nf { row } else { &row[..nf] };
             for v in part {
                 scale = if v.abs() > scale { v.abs() } else { scale };
@@ -56,27 +78,25 @@ impl Tableau {
         }
         let tiny = self.pivot_tol * scale;
         let mut pivots = 0;
-        // A: every equality slack w_i (i < nf) leaves, for any z.
+        // A: every equality slack w_i (i < nf) leaves, for any z. Its rows are still those of
+        // M (plus the z0 column of ones), updated here as phase A pivots.
+        let s = n + 1;
+        for (i, row) in m.chunks_exact(n.max(1)).take(nf).enumerate() {
+            self.eq_rows[i * s..i * s + n].copy_from_slice(row);
+            self.eq_rows[i * s + n] = 1.0;
+        }
         for _ in 0..nf {
-            let (r, c, a) = self.best_pivot(|_, v| v < nf, |v| v >= n && v < 2 * n)?;
+            self.cand.clear();
+            self.cand.extend((0..nf).filter(|&r| self.basic[r] < nf));
+            let (r, c, a) = self.best_pivot(m, true, |v| v >= n && v < 2 * n)?;
             if a <= tiny {
                 return None;
             }
-            self.pivot(r, c, usize::MAX);
+            self.pivot_eq_rows(r, c);
+            self.pivot(r, c, m);
             pivots += 1;
         }
-        // B: free z still nonbasic enter where both of a pair are basic.
-        loop {
-            let both = |t: &Self, v: usize| v >= nf && v < n && t.is_basic[v + n];
-            let Some((r, c, a)) = self.best_pivot(both, |v| v >= n && v < n + nf) else {
-                break;
-            };
-            if a <= tiny {
-                return None;
-            }
-            self.pivot(r, c, usize::MAX);
-            pivots += 1;
-        }
+        pivots += self.enter_free(m, tiny)?;
         if (n..n + nf).any(|v| !self.is_basic[v]) {
             return None;
         }
@@ -97,14 +117,27 @@ impl Tableau {
         Some(pivots)
     }
 
-    /// Swaps two nonbasic columns (values and labels).
-    fn swap_columns(&mut self, a: usize, b: usize) {
-        let s = self.n + 1;
-        for row in self.t[..self.n * s].chunks_exact_mut(s) {
-            row.swap(a, b);
+    /// Phase B: free `z` still nonbasic enter where both of a pair are basic. Returns the
+    /// pivots spent, or `None` on a pivot below `tiny`.
+    fn enter_free(&mut self, m: &[f64], tiny: f64) -> Option<usize> {
+        let (n, nf) = (self.n, self.nf);
+        let mut pivots = 0;
+        loop {
+            self.cand.clear();
+            for r in 0..n {
+                let v = self.basic[r];
+                if v >= nf && v < n && self.is_basic[v + n] {
+                    self.cand.push(r);
+                }
+            }
+            let Some((r, c, a)) = self.best_pivot(m, false, |v| v >= n && v < n + nf) else {
+                return Some(pivots);
+            };
+            if a <= tiny {
+                return None;
+            }
+            self.pivot(r, c, m);
+            pivots += 1;
         }
-        self.nonbasic.swap(a, b);
-        self.slot[self.nonbasic[a]] = a;
-        self.slot[self.nonbasic[b]] = b;
     }
 }
