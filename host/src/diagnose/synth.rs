@@ -88,7 +88,9 @@ pub fn realistic_effect(c: Candidate, rng: &mut impl Rng) -> Effects {
         }
         Candidate::SupportDrift => {
             e.support_drift = Some(SupportDrift {
-                points_um_per_trial: [rng.random_range(-25.0..25.0), rng.random_range(15.0..25.0)],
+                // Along the peg's long axis, so a 6-trial batch keeps every support inside
+                // the part (the nominal points sit within ~50 µm of its long edges).
+                points_um_per_trial: [s[0] * rng.random_range(10.0..25.0), 0.0],
                 mu_surface_per_trial: 0.0,
             })
         }
