@@ -205,6 +205,22 @@ impl SimLoop {
         Ok(())
     }
 
+    /// Segments the controller applied, and whether their ids ran consecutively (every
+    /// move exactly once, in order).
+    pub fn applied(&self) -> (u64, bool) {
+        let ids: Vec<u32> = self
+            .node
+            .events
+            .iter()
+            .filter_map(|(_, e)| match e {
+                NodeEvent::Ctrl(mesopush_firmware_sim::CtrlEvent::Applied(id)) => Some(*id),
+                _ => None,
+            })
+            .collect();
+        let in_order = ids.windows(2).all(|w| w[1] == w[0].wrapping_add(1));
+        (ids.len() as u64, in_order)
+    }
+
     /// Ends the loop (closing the recorder's channel) and hands back the world.
     pub fn into_world(self) -> RigWorld {
         let Self { world, .. } = self;

@@ -82,6 +82,13 @@ pub struct TrialReport {
     pub sim_time_s: f64,
     /// Wall-clock time, s.
     pub wall_time_s: f64,
+    /// Segments the controller applied.
+    pub segments_applied: u64,
+    /// Segments the plan consists of at the setpoint rate.
+    pub segments_expected: u64,
+    /// Whether the applied segments' ids ran consecutively (no move lost, repeated or
+    /// reordered).
+    pub segments_in_order: bool,
     /// Tracked (unflagged) poses in time order, for figures.
     #[serde(skip)]
     pub tracked_poses: Vec<Pose>,
@@ -105,6 +112,7 @@ pub(crate) struct Prepared {
     pub camera: CameraTiming,
     pub config: ExecutorConfig,
     pub plan_duration_s: f64,
+    pub segments_expected: u64,
 }
 
 fn peg_start(spec: &TrialSpec, rng: &SimRng) -> Pose {
@@ -178,9 +186,24 @@ pub(crate) fn prepare(spec: &TrialSpec, out_dir: &Path) -> Result<Prepared, Erro
         theta_hint_rad: spec.plan.peg_start_pose().theta_rad,
         ..TrackSettings::default()
     };
+    let total_us: u64 = schedule
+        .steps
+        .iter()
+        .map(|s| mesopush_executor::plan::StepGeometry::of(s).duration_us)
+        .sum();
+    let segments_expected = total_us.div_ceil(schedule.period_us.max(1));
     let recorder = Recorder::new(writer, &background, track, schedule)?;
     let plan_duration_s = spec.plan.travel_um() / spec.plan.speed_um_s;
-    Ok(Prepared { rng, world, recorder, probe_start_nm, camera, config, plan_duration_s })
+    Ok(Prepared {
+        rng,
+        world,
+        recorder,
+        probe_start_nm,
+        camera,
+        config,
+        plan_duration_s,
+        segments_expected,
+    })
 }
 
 /// Runs one trial into `out_dir` (created; must not hold a trial). `progress` is called
@@ -245,18 +268,23 @@ fn run_simulated(
     }
     let end = lp.host.end().cloned();
     let faults_injected = lp.faults_injected();
+    let applied = lp.applied();
     let sim_time_s = lp.now_us as f64 * 1e-6;
     let world = lp.into_world(); // closes the recorder's channel
     let recorded =
         rec.join().map_err(|_| Error::invalid("recorder", "the recorder panicked"))??;
     result?;
-    let done = Finished { end, faults_injected, records_lost: 0, sim_time_s };
+    let segments_expected = prep.segments_expected;
+    let done =
+        Finished { end, applied, segments_expected, faults_injected, records_lost: 0, sim_time_s };
     finish(out_dir, recorded, world.truth(), world.fixture(), done)
 }
 
 /// The loop's outcome, for [`finish`].
 pub(crate) struct Finished {
     pub end: Option<SessionEnd>,
+    pub applied: (u64, bool),
+    pub segments_expected: u64,
     pub faults_injected: u64,
     pub records_lost: u64,
     pub sim_time_s: f64,
@@ -313,6 +341,9 @@ pub(crate) fn finish(
         true_final_pose: truth.last().map(|s| s.peg),
         sim_time_s: done.sim_time_s,
         wall_time_s: 0.0,
+        segments_applied: done.applied.0,
+        segments_expected: done.segments_expected,
+        segments_in_order: done.applied.1,
         tracked_poses,
     })
 }
