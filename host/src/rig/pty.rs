@@ -52,6 +52,12 @@ impl PtyLine {
         &self.path
     }
 
+    /// Splits into the simulator's (master) end, the executor's end (opened by path) and
+    /// the pair's own slave handle (keep it alive while the line is in use).
+    pub fn into_parts(self) -> (TTYPort, TTYPort, TTYPort) {
+        (self.master, self.exec_port, self._slave)
+    }
+
     /// The executor writes `bytes`; returns them as read from the simulator's end.
     pub fn exec_to_sim(&mut self, bytes: &[u8], out: &mut Vec<u8>) -> Result<(), Error> {
         transfer(&mut self.exec_port, &mut self.master, bytes, out, &self.path)

@@ -208,17 +208,7 @@ impl SimLoop {
     /// Segments the controller applied, and whether their ids ran consecutively (every
     /// move exactly once, in order).
     pub fn applied(&self) -> (u64, bool) {
-        let ids: Vec<u32> = self
-            .node
-            .events
-            .iter()
-            .filter_map(|(_, e)| match e {
-                NodeEvent::Ctrl(mesopush_firmware_sim::CtrlEvent::Applied(id)) => Some(*id),
-                _ => None,
-            })
-            .collect();
-        let in_order = ids.windows(2).all(|w| w[1] == w[0].wrapping_add(1));
-        (ids.len() as u64, in_order)
+        applied_segments(&self.node.events)
     }
 
     /// Ends the loop (closing the recorder's channel) and hands back the world.
@@ -253,4 +243,17 @@ impl SimLoop {
             .count() as u64;
         lines + stage + self.camera.dropped + self.camera.black
     }
+}
+
+/// Segments a controller node applied, and whether their ids ran consecutively.
+pub fn applied_segments(events: &[(u64, NodeEvent)]) -> (u64, bool) {
+    let ids: Vec<u32> = events
+        .iter()
+        .filter_map(|(_, e)| match e {
+            NodeEvent::Ctrl(mesopush_firmware_sim::CtrlEvent::Applied(id)) => Some(*id),
+            _ => None,
+        })
+        .collect();
+    let in_order = ids.windows(2).all(|w| w[1] == w[0].wrapping_add(1));
+    (ids.len() as u64, in_order)
 }

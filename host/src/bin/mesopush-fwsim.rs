@@ -1,2 +1,0 @@
-//! `mesopush-fwsim`: placeholder replaced below.
-fn main() {}
