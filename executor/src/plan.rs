@@ -129,6 +129,20 @@ pub fn path_position_nm(
 
 #[cfg(test)]
 mod tests {
+    use super::path_position_nm;
+
+    #[test]
+    fn path_position_follows_the_steps_and_stops_at_the_end() {
+        let steps = [
+            PlanStep { dx_nm: 1_400, dy_nm: 0, speed_nm_s: 140_000 },
+            PlanStep { dx_nm: 0, dy_nm: -700, speed_nm_s: 140_000 },
+        ];
+        assert_eq!(path_position_nm(steps, (10, 20), 0), (10, 20));
+        assert_eq!(path_position_nm(steps, (10, 20), 5_000), (710, 20));
+        assert_eq!(path_position_nm(steps, (10, 20), 12_500), (1_410, -330));
+        assert_eq!(path_position_nm(steps, (10, 20), 99_000), (1_410, -680));
+    }
+
     use super::*;
 
     #[test]
