@@ -11,6 +11,7 @@ pub mod geom;
 pub mod ident;
 pub mod lcp;
 pub mod plot;
+pub mod rig;
 pub mod sim;
 pub mod trial;
 pub mod units;

@@ -4,6 +4,7 @@
 mod cmd_identify;
 mod cmd_diagnose;
 mod cmd_diagnose_confusion;
+mod cmd_demo;
 mod cmd_lcp;
 mod cmd_render;
 mod cmd_sim;
@@ -21,6 +22,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Run a plan (default: Table II) through the whole loop on the firmware simulator.
+    Demo(cmd_demo::DemoArgs),
     /// Replay a plan in the quasi-static simulator (trajectory CSV, figure, verdict).
     Sim(cmd_sim::SimArgs),
     /// Complementarity problems: solve LCP files with our solver.
@@ -50,6 +53,7 @@ fn main() -> std::process::ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Demo(args) => cmd_demo::run(&args),
         Command::Sim(args) => cmd_sim::run(&args),
         Command::Lcp(args) => cmd_lcp::run(args),
         Command::Render(args) => cmd_render::run(&args),
