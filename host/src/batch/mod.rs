@@ -8,11 +8,15 @@
 pub mod check;
 pub mod engine;
 pub mod estimate;
+pub mod figures;
 pub mod fsx;
 pub mod journal;
+pub mod merge;
+pub mod report;
 pub mod runner;
 pub mod sim_runner;
 pub mod spec;
+pub mod stats;
 pub mod supervise;
 
 pub use engine::{BatchConfig, Manifest, Progress, Session, run};

@@ -54,7 +54,9 @@ pub fn follow_path(
     let Some(first) = path.first() else {
         return Err(Error::invalid("probe path", "no waypoints"));
     };
-    if let Some(w) = path.windows(2).find(|w| w[1].t_s.partial_cmp(&w[0].t_s).is_none_or(|o| o.is_lt())) {
+    if let Some(w) =
+        path.windows(2).find(|w| w[1].t_s.partial_cmp(&w[0].t_s).is_none_or(|o| o.is_lt()))
+    {
         return Err(Error::invalid(
             "probe path",
             format!("time goes backwards at t = {} s → {} s", w[0].t_s, w[1].t_s),

@@ -1,6 +1,7 @@
 //! `mesopush`: the host command line. Thin over `mesopush_host`: each subcommand module parses
 //! its flags, calls the library and prints.
 
+mod cmd_batch;
 mod cmd_lcp;
 mod cmd_render;
 mod cmd_sim;
@@ -26,6 +27,8 @@ enum Command {
     Render(cmd_render::RenderArgs),
     /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
     Track(cmd_track::TrackArgs),
+    /// Unattended trial batches: run (resumable, shardable), merge shards, report.
+    Batch(cmd_batch::BatchArgs),
 }
 
 /// Runs the command; errors are printed as one `error: …` line (with their causes) and exit
@@ -47,5 +50,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Lcp(args) => cmd_lcp::run(args),
         Command::Render(args) => cmd_render::run(&args),
         Command::Track(args) => cmd_track::run(&args),
+        Command::Batch(args) => cmd_batch::run(&args),
     }
 }
