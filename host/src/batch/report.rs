@@ -117,6 +117,14 @@ fn markdown(b: &Loaded, s: &Summary, finals: &[&AttemptRecord]) -> String {
     ] {
         let _ = writeln!(m, "| {v} | {n} |");
     }
+    faults_and_reasons(&mut m, s);
+    timing(&mut m, s, finals);
+    m.push_str("## Figures\n\n![success over time](success.png)\n\n![final poses](final_poses.png)\n\n![timing](timing.png)\n\n");
+    m.push_str("Per-trial rows: `trials.csv`; summary: `summary.json`.\n");
+    m
+}
+
+fn faults_and_reasons(m: &mut String, s: &Summary) {
     m.push_str("\n## Faults and data\n\n| | |\n|---|---:|\n");
     let _ = writeln!(
         m,
@@ -140,6 +148,9 @@ fn markdown(b: &Loaded, s: &Summary, finals: &[&AttemptRecord]) -> String {
             r.trials
         );
     }
+}
+
+fn timing(m: &mut String, s: &Summary, finals: &[&AttemptRecord]) {
     let mut wall: Vec<f64> = finals.iter().map(|a| a.wall_time_s * 1e3).collect();
     let _ = writeln!(m, "\n## Timing\n\n| | |\n|---|---:|");
     let _ = writeln!(
@@ -157,9 +168,6 @@ fn markdown(b: &Loaded, s: &Summary, finals: &[&AttemptRecord]) -> String {
     let ratio = if s.wall_time_s > 0.0 { s.sim_time_s / s.wall_time_s } else { 0.0 };
     let _ =
         writeln!(m, "| simulated time covered | {:.0} s ({ratio:.0}× real time) |\n", s.sim_time_s);
-    m.push_str("## Figures\n\n![success over time](success.png)\n\n![final poses](final_poses.png)\n\n![timing](timing.png)\n\n");
-    m.push_str("Per-trial rows: `trials.csv`; summary: `summary.json`.\n");
-    m
 }
 
 /// Writes the report of the batch in `dir` into `out`.

@@ -56,6 +56,27 @@ pub fn engine_verdict(verdict: Verdict, reason: String) -> TrialResult {
     }
 }
 
+/// Starts `runner` on its own thread; the reply comes on the returned channel.
+fn spawn(
+    mut runner: Box<dyn TrialRunner>,
+    job: &TrialJob,
+    dir: &Path,
+    cancel: &Cancel,
+) -> Result<mpsc::Receiver<Reply>, Error> {
+    let (tx, rx) = mpsc::sync_channel::<Reply>(1);
+    let (job, dir, cancel): (TrialJob, PathBuf, Cancel) =
+        (job.clone(), dir.to_path_buf(), cancel.clone());
+    std::thread::Builder::new()
+        .name(format!("runner-{}", job.trial_id))
+        .spawn(move || {
+            let r = std::panic::catch_unwind(AssertUnwindSafe(|| runner.run(&job, &dir, &cancel)));
+            // The receiver may be gone (abandoned); nothing to do then.
+            let _ = tx.send((runner, r));
+        })
+        .map_err(|e| Error::io("runner thread", e))?;
+    Ok(rx)
+}
+
 impl Supervisor {
     /// Builds the first runner.
     pub fn new(factory: RunnerFactory) -> Result<Self, Error> {
@@ -77,7 +98,7 @@ impl Supervisor {
         timeout: Duration,
         grace: Duration,
     ) -> Result<TrialResult, Error> {
-        let mut runner = match self.runner.take() {
+        let runner = match self.runner.take() {
             Some(r) => r,
             None => {
                 self.restarts += 1;
@@ -85,19 +106,7 @@ impl Supervisor {
             }
         };
         let cancel = Cancel::new();
-        let (tx, rx) = mpsc::sync_channel::<Reply>(1);
-        let (job2, dir2, cancel2): (TrialJob, PathBuf, Cancel) =
-            (job.clone(), dir.to_path_buf(), cancel.clone());
-        std::thread::Builder::new()
-            .name(format!("runner-{}", job.trial_id))
-            .spawn(move || {
-                let r = std::panic::catch_unwind(AssertUnwindSafe(|| {
-                    runner.run(&job2, &dir2, &cancel2)
-                }));
-                // The receiver may be gone (abandoned); nothing to do then.
-                let _ = tx.send((runner, r));
-            })
-            .map_err(|e| Error::io("runner thread", e))?;
+        let rx = spawn(runner, job, dir, &cancel)?;
         let reply = match rx.recv_timeout(timeout) {
             Ok(r) => Some(r),
             Err(_) => {

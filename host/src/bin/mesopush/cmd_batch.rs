@@ -4,9 +4,10 @@
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use mesopush_host::batch::stats::{Loaded, summarize};
+use mesopush_host::batch::stats::{Loaded, Summary, summarize};
 use mesopush_host::batch::{
-    BatchConfig, BatchSpec, Progress, RunnerFactory, Shard, SimRunner, TrialRunner, merge, report,
+    BatchConfig, BatchSpec, Progress, RunnerFactory, Session, Shard, SimRunner, TrialRunner, merge,
+    report,
 };
 use mesopush_host::sim::{Fixture, Model};
 use serde_json::json;
@@ -141,10 +142,22 @@ fn run_batch(a: &RunArgs) -> Result<()> {
     let session = mesopush_host::batch::run(&cfg, factory, &mut on_progress)?;
     pb.finish_and_clear();
     let s = summarize(&Loaded::load(&out)?);
+    print_run(&out, &s, &session, a.json);
+    if s.records_lost > 0 || s.duplicates > 0 {
+        bail!(
+            "data integrity: {} records lost, {} duplicated trials",
+            s.records_lost,
+            s.duplicates
+        );
+    }
+    Ok(())
+}
+
+fn print_run(out: &Path, s: &Summary, session: &Session, json: bool) {
     let session_rate =
         if session.elapsed_s > 0.0 { session.ran as f64 / session.elapsed_s } else { 0.0 };
-    if a.json {
-        let mut v = serde_json::to_value(&s)?;
+    if json {
+        let mut v = serde_json::to_value(s).expect("summary serialises");
         v["dir"] = json!(out);
         v["session"] = json!({"ran": session.ran, "resumed": session.resumed,
             "discarded": session.discarded, "restarts": session.restarts,
@@ -180,14 +193,6 @@ fn run_batch(a: &RunArgs) -> Result<()> {
         println!("this session: {:.1} s, {session_rate:.2} trials/s", session.elapsed_s);
         println!("report: mesopush batch report {}", out.display());
     }
-    if s.records_lost > 0 || s.duplicates > 0 {
-        bail!(
-            "data integrity: {} records lost, {} duplicated trials",
-            s.records_lost,
-            s.duplicates
-        );
-    }
-    Ok(())
 }
 
 fn run_report(a: &ReportArgs) -> Result<()> {
