@@ -20,7 +20,11 @@ use std::path::Path;
 /// The simulator-backed runner.
 #[derive(Debug)]
 pub struct SimRunner {
-    sim: Simulator,
+    /// Built afresh for every trial (`Simulator::new`, validated once here): a simulator
+    /// carries warm-start state from one replay to the next, and a trial must not depend on
+    /// the ones before it (shards and resumed runs see other predecessors).
+    model: Model,
+    fixture: Fixture,
     camera: Option<Camera>,
     world: serde_json::Value,
 }
@@ -41,8 +45,8 @@ impl SimRunner {
         } else {
             None
         };
-        let sim = Simulator::new(model, fixture, SimSettings::default())?;
-        Ok(Self { sim, camera, world })
+        Simulator::new(model.clone(), fixture.clone(), SimSettings::default())?;
+        Ok(Self { model, fixture, camera, world })
     }
 }
 
@@ -67,9 +71,9 @@ impl TrialResult {
 
 impl SimRunner {
     fn meta(&self, job: &TrialJob) -> TrialMeta {
-        let mut meta = TrialMeta::new(job.trial_id.clone(), "sim", self.sim.model().part.clone());
-        meta.probe_radius_um = self.sim.model().probe_radius_um;
-        meta.fixture = Some(self.sim.fixture().clone());
+        let mut meta = TrialMeta::new(job.trial_id.clone(), "sim", self.model.part.clone());
+        meta.probe_radius_um = self.model.probe_radius_um;
+        meta.fixture = Some(self.fixture.clone());
         meta.seeds.insert("trial".into(), job.trial_seed);
         meta.seeds.insert("attempt".into(), job.attempt_seed);
         let mut world = self.world.clone();
@@ -129,7 +133,7 @@ impl TrialRunner for SimRunner {
                 return no_start_pose(dir, meta, e, out);
             }
             Some(Some(p)) => {
-                let char_len = self.sim.model().part.char_length_um();
+                let char_len = self.model.part.char_length_um();
                 adapt(&job.plans[nearest_plan(&job.plans, &p, char_len)], &p)
             }
         };
@@ -147,7 +151,9 @@ impl TrialRunner for SimRunner {
         }
         w.event(&event(0, "started", format!("plan {:?}", plan.name)))?;
         out.plan_name = plan.name.clone();
-        let r = match replay(&mut self.sim, &plan, Some(job.peg_start)) {
+        let mut sim =
+            Simulator::new(self.model.clone(), self.fixture.clone(), SimSettings::default())?;
+        let r = match replay(&mut sim, &plan, Some(job.peg_start)) {
             Ok(r) => r,
             Err(e) => {
                 let why = format!("simulator: {e}");
@@ -164,7 +170,7 @@ impl TrialRunner for SimRunner {
         cancel.check()?;
         Self::write_replay(&mut w, &r)?;
         let t_end = r.samples.last().map_or(0.0, |s| s.t_s);
-        let (verdict, why) = judge(&r, self.sim.fixture());
+        let (verdict, why) = judge(&r, &self.fixture);
         w.event(&event(us(t_end), "verdict", why.clone()))?;
         w.finish(Outcome {
             state: TrialState::Done,
@@ -210,16 +216,20 @@ fn err_um(a: &Pose, b: &Pose) -> f64 {
     (a.position() - b.position()).norm()
 }
 
-/// Inserted or missed, with the depth (or distance) as the reason.
+/// Inserted or missed; the reason's class (before the `:`) says how it missed.
 fn judge(r: &Replay, fixture: &Fixture) -> (Verdict, String) {
     let d = fixture.goal.signed_distance(&r.final_pose.position());
-    let jams =
-        if r.events.is_empty() { String::new() } else { format!("; {} jam(s)", r.events.len()) };
+    let jams = r.events.len();
     if r.inserted {
-        (Verdict::Inserted, format!("inserted: COM {:.0} µm inside the channel{jams}", -d))
-    } else if d < 0.0 {
-        (Verdict::Missed, format!("missed: COM only {:.0} µm inside the channel{jams}", -d))
+        return (Verdict::Inserted, format!("inserted: COM {:.0} µm inside the channel", -d));
+    }
+    let how = if jams > 0 { "missed after a jam" } else { "missed" };
+    if d < 0.0 {
+        (Verdict::Missed, format!("{how}, COM in the channel mouth: only {:.0} µm deep", -d))
     } else {
-        (Verdict::Missed, format!("missed: COM {d:.0} µm outside the channel{jams}"))
+        (
+            Verdict::Missed,
+            format!("{how}, COM short of the channel: {d:.0} µm outside; {jams} jam(s)"),
+        )
     }
 }
