@@ -105,6 +105,28 @@ pub fn lerp_nm(from: (i64, i64), to: (i64, i64), num: u64, den: u64) -> (i64, i6
     (f(from.0, to.0), f(from.1, to.1))
 }
 
+/// Commanded path position `rel_us` after the start of a plan of `steps` begun at
+/// `start_nm`: the same schedule the streamer sends (each step at its speed, durations
+/// rounded up to the µs, linear within a step; the end point after the last step). Stateless,
+/// for recorders and tests that rebuild the commanded path.
+pub fn path_position_nm(
+    steps: impl IntoIterator<Item = PlanStep>,
+    start_nm: (i64, i64),
+    rel_us: u64,
+) -> (i64, i64) {
+    let (mut at, mut t0) = (start_nm, 0u64);
+    for step in steps {
+        let g = StepGeometry::of(&step);
+        let end = (at.0 + i64::from(step.dx_nm), at.1 + i64::from(step.dy_nm));
+        if rel_us < t0 + g.duration_us {
+            return lerp_nm(at, end, rel_us - t0, g.duration_us);
+        }
+        at = end;
+        t0 += g.duration_us;
+    }
+    at
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,6 +9,7 @@ pub mod error;
 pub mod geom;
 pub mod lcp;
 pub mod plot;
+pub mod rig;
 pub mod sim;
 pub mod trial;
 pub mod units;

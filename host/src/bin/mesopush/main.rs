@@ -2,6 +2,7 @@
 //! its flags, calls the library and prints.
 
 mod cmd_batch;
+mod cmd_demo;
 mod cmd_lcp;
 mod cmd_render;
 mod cmd_sim;
@@ -19,6 +20,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Run a plan (default: Table II) through the whole loop on the firmware simulator.
+    Demo(cmd_demo::DemoArgs),
     /// Replay a plan in the quasi-static simulator (trajectory CSV, figure, verdict).
     Sim(cmd_sim::SimArgs),
     /// Complementarity problems: solve LCP files with our solver.
@@ -46,6 +49,7 @@ fn main() -> std::process::ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Demo(args) => cmd_demo::run(&args),
         Command::Sim(args) => cmd_sim::run(&args),
         Command::Lcp(args) => cmd_lcp::run(args),
         Command::Render(args) => cmd_render::run(&args),

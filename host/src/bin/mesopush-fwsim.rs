@@ -1,0 +1,2 @@
+//! `mesopush-fwsim`: placeholder replaced below.
+fn main() {}

@@ -1,0 +1,256 @@
+//! The whole loop in simulated time, on one thread: host session → executor endpoint (the
+//! allocation-free core) → controller line over a real pseudo-terminal (lock-stepped, see
+//! [`super::pty`]) → firmware-simulator controller node → stage → world → camera → executor
+//! stamps → recorder. Every line passes a seeded [`SimLine`] that injects the world file's
+//! faults on the way; one seed drives everything, so the same seed gives the same run.
+
+use super::pty::PtyLine;
+use super::recorder::RecMsg;
+use super::session::HostSession;
+use super::world::RigWorld;
+use crate::Error;
+use crossbeam_channel::Sender;
+use mesopush_executor::endpoint::Endpoint;
+use mesopush_executor::{CameraFrame, Executor, ExecutorConfig, LogEvent, MemStore};
+use mesopush_firmware_sim::camera::SimCamera;
+use mesopush_firmware_sim::line::SimLine;
+use mesopush_firmware_sim::{ControllerNode, FaultConfig, NodeEvent, SimRng, World};
+use mesopush_protocol::{FRAME_BUF_LEN, LinkConfig};
+
+/// Plan memory of the executor: 4096 steps.
+pub const CAP: usize = 12 * 4096;
+/// Look-ahead queue.
+pub const LA: usize = 32;
+/// Link window of the executor's lines.
+pub const EW: usize = 48;
+/// Controller queue slots.
+pub const Q: usize = 32;
+/// Simulation step, µs.
+pub const STEP_US: u64 = 100;
+
+/// Everything in the loop.
+#[derive(Debug)]
+pub struct SimLoop {
+    /// Simulated time, µs (also the executor's clock).
+    pub now_us: u64,
+    /// The executor.
+    pub exec: Endpoint<MemStore<CAP>, CAP, LA, EW>,
+    /// The controller.
+    pub node: ControllerNode<Q, EW>,
+    /// The controller's line.
+    pub pty: PtyLine,
+    /// Simulated lines: exec→ctrl, ctrl→exec, host→exec, exec→host.
+    pub lines: [SimLine; 4],
+    /// The host.
+    pub host: HostSession,
+    /// The camera.
+    pub camera: SimCamera,
+    /// The world.
+    pub world: RigWorld,
+    tx: Sender<RecMsg>,
+    logs: Vec<LogEvent>,
+    scratch: Vec<u8>,
+    node_events_seen: usize,
+}
+
+/// Camera timing.
+#[derive(Debug, Clone, Copy)]
+pub struct CameraTiming {
+    /// Frame period, µs.
+    pub period_us: u64,
+    /// Readout, µs.
+    pub readout_us: u64,
+    /// First exposure, µs.
+    pub start_us: u64,
+}
+
+impl SimLoop {
+    /// Builds the loop; `probe_start_nm` is the stage's start.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        rng: &SimRng,
+        config: ExecutorConfig,
+        faults: FaultConfig,
+        probe_start_nm: (f64, f64),
+        host: HostSession,
+        world: RigWorld,
+        camera: CameraTiming,
+        tx: Sender<RecMsg>,
+    ) -> Result<Self, Error> {
+        let link = LinkConfig::DEFAULT;
+        let core = Executor::new(config, MemStore::new())
+            .map_err(|e| Error::invalid("executor config", format!("{e:?}")))?;
+        let session = 1 + rng.fork(10).below(1000) as u16;
+        let node = ControllerNode::new(
+            mesopush_firmware_sim::CtrlConfig::DEFAULT,
+            faults,
+            link,
+            rng.fork(1),
+            0,
+            probe_start_nm,
+        );
+        let cam = SimCamera::new(
+            camera.period_us,
+            camera.readout_us,
+            camera.start_us,
+            rng.fork(6),
+            faults,
+        );
+        Ok(Self {
+            now_us: 0,
+            exec: Endpoint::new(core, link, session),
+            node,
+            pty: PtyLine::open()?,
+            lines: [2, 3, 4, 5].map(|s| SimLine::new(rng.fork(s), faults)),
+            host,
+            camera: cam,
+            world,
+            tx,
+            logs: Vec::with_capacity(64),
+            scratch: Vec::with_capacity(FRAME_BUF_LEN),
+            node_events_seen: 0,
+        })
+    }
+
+    fn send(&self, msg: RecMsg) -> Result<(), Error> {
+        // Simulated time: wait for the recorder (deterministic; time is not real here).
+        self.tx
+            .send(msg)
+            .map_err(|_| Error::invalid("recorder", "the recorder thread stopped early"))
+    }
+
+    /// One step of simulated time.
+    pub fn step(&mut self) -> Result<(), Error> {
+        self.now_us += STEP_US;
+        let now = self.now_us;
+        let logs = &mut self.logs;
+        let mut log = |e: &LogEvent| logs.push(*e);
+        let full = |e: mesopush_executor::ExecError| Error::invalid("executor", format!("{e:?}"));
+        while let Some(b) = self.lines[0].recv(now) {
+            self.node.on_bytes(now, &b);
+        }
+        while let Some(b) = self.lines[1].recv(now) {
+            self.exec.on_ctrl_bytes(now, &b, &mut log).map_err(full)?;
+        }
+        while let Some(b) = self.lines[2].recv(now) {
+            self.exec.on_host_bytes(now, &b, &mut log).map_err(full)?;
+        }
+        while let Some(b) = self.lines[3].recv(now) {
+            self.host.on_bytes(now, &b);
+        }
+        self.node.tick(now);
+        let mut frame_msg = None;
+        if let Some(frame) = self.camera.poll(now, &mut self.world) {
+            let cam = CameraFrame {
+                frame_seq: frame.frame_seq,
+                driver_stamp_us: Some(frame.exposure_sim_us),
+                black: frame.black,
+            };
+            self.exec.on_frame(now, cam, &mut log).map_err(full)?;
+            frame_msg = Some(frame.image.map(|f| f.image));
+        }
+        self.exec.poll(now, &mut log).map_err(full)?;
+        self.host.poll(now)?;
+        self.transmit(now)?;
+        self.world.step(now, self.node.probe_nm());
+        self.forward(now, frame_msg)
+    }
+
+    fn transmit(&mut self, now: u64) -> Result<(), Error> {
+        let mut buf = [0u8; FRAME_BUF_LEN];
+        while let Some(f) = self.exec.transmit_ctrl(now, &mut buf) {
+            self.pty.exec_to_sim(f, &mut self.scratch)?;
+            self.lines[0].send(now, &self.scratch);
+        }
+        while let Some(f) = self.node.transmit(now, &mut buf) {
+            self.pty.sim_to_exec(f, &mut self.scratch)?;
+            self.lines[1].send(now, &self.scratch);
+        }
+        while let Some(f) = self.exec.transmit_host(now, &mut buf) {
+            self.lines[3].send(now, f);
+        }
+        while let Some(f) = self.host.transmit(now, &mut buf) {
+            self.lines[2].send(now, f);
+        }
+        Ok(())
+    }
+
+    fn forward(&mut self, now: u64, frame: Option<Option<image::GrayImage>>) -> Result<(), Error> {
+        let mut stamped = None;
+        for e in std::mem::take(&mut self.logs) {
+            if let LogEvent::Frame(s) = e {
+                stamped = Some(s);
+            }
+            self.send(RecMsg::Log(now, e))?;
+        }
+        if let (Some(image), Some(stamped)) = (frame, stamped) {
+            self.send(RecMsg::Frame { stamped, arrival_us: now, image })?;
+        }
+        for (t, msg) in std::mem::take(&mut self.host.inbox) {
+            self.send(RecMsg::Host(t, msg))?;
+        }
+        let new: Vec<(u64, NodeEvent)> = self.node.events[self.node_events_seen..].to_vec();
+        self.node_events_seen = self.node.events.len();
+        for (t, e) in new {
+            let kind = match e {
+                NodeEvent::InjectedStall => "injected_stall",
+                NodeEvent::InjectedLimitSwitch => "injected_limit_switch",
+                NodeEvent::Rebooted { .. } => "injected_reboot",
+                NodeEvent::LinkDown => "ctrl_link_down",
+                NodeEvent::OutboxOverflow => "ctrl_outbox_overflow",
+                NodeEvent::Ctrl(_) => continue,
+            };
+            self.send(RecMsg::Event(t, kind.into(), format!("{e:?}")))?;
+        }
+        Ok(())
+    }
+
+    /// Segments the controller applied, and whether their ids ran consecutively (every
+    /// move exactly once, in order).
+    pub fn applied(&self) -> (u64, bool) {
+        let ids: Vec<u32> = self
+            .node
+            .events
+            .iter()
+            .filter_map(|(_, e)| match e {
+                NodeEvent::Ctrl(mesopush_firmware_sim::CtrlEvent::Applied(id)) => Some(*id),
+                _ => None,
+            })
+            .collect();
+        let in_order = ids.windows(2).all(|w| w[1] == w[0].wrapping_add(1));
+        (ids.len() as u64, in_order)
+    }
+
+    /// Ends the loop (closing the recorder's channel) and hands back the world.
+    pub fn into_world(self) -> RigWorld {
+        let Self { world, .. } = self;
+        world
+    }
+
+    /// Faults the world injected so far (line faults, stage faults, camera drops and black
+    /// frames).
+    pub fn faults_injected(&self) -> u64 {
+        let lines: u64 = self
+            .lines
+            .iter()
+            .map(|l| {
+                let s = l.stats();
+                s.dropped + s.corrupted + s.duplicated + s.delayed
+            })
+            .sum();
+        let stage = self
+            .node
+            .events
+            .iter()
+            .filter(|(_, e)| {
+                matches!(
+                    e,
+                    NodeEvent::InjectedStall
+                        | NodeEvent::InjectedLimitSwitch
+                        | NodeEvent::Rebooted { .. }
+                )
+            })
+            .count() as u64;
+        lines + stage + self.camera.dropped + self.camera.black
+    }
+}

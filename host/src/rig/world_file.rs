@@ -1,0 +1,301 @@
+//! The world file (`worlds/*.toml`): everything the firmware simulator's physical world is
+//! made of — its own physical model (which may differ from the host's nominal one), the peg's
+//! start and a seeded start perturbation, the stage's registration to the fixture frame, the
+//! camera (period, readout, the true optics and the calibration the host is told), and the
+//! faults to inject. Documented in `docs/hil.md`. The file's text is kept verbatim: the trial
+//! log stores it in `trial.json` (`world`), where identification never reads it.
+
+use crate::Error;
+use crate::geom::Vec2;
+use crate::sim::Model;
+use crate::sim::plan::PegStart;
+use crate::vision::Calibration;
+use mesopush_firmware_sim::FaultConfig;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The default world, embedded (`worlds/default.toml`).
+pub const DEFAULT_WORLD_TOML: &str = include_str!("../../../worlds/default.toml");
+
+/// The world's physics: a model inline, or a path to a model TOML (relative to the world
+/// file), or (neither) the host's default model.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSpec {
+    /// Path of a model TOML, relative to the world file's directory.
+    #[serde(default)]
+    pub path: Option<PathBuf>,
+    /// The model inline.
+    #[serde(default)]
+    pub inline: Option<Model>,
+}
+
+/// Where the peg starts in the world.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PegSpec {
+    /// Start pose; absent: the plan's nominal start.
+    #[serde(default)]
+    pub start: Option<PegStart>,
+    /// Uniform start perturbation ±(x µm, y µm, θ degrees) drawn from the seed; default none.
+    #[serde(default)]
+    pub perturb: Option<[f64; 3]>,
+}
+
+/// The stage's registration: stage position (controller nm) = (fixture µm + `offset_um`) ×
+/// 1000. The host is told the same (as a rig's stage-to-fixture registration).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StageSpec {
+    /// Fixture origin in stage coordinates, µm. Default (1000, 1000).
+    #[serde(default = "default_offset")]
+    pub offset_um: [f64; 2],
+}
+
+fn default_offset() -> [f64; 2] {
+    [1000.0, 1000.0]
+}
+
+impl Default for StageSpec {
+    fn default() -> Self {
+        Self { offset_um: default_offset() }
+    }
+}
+
+/// The microscope camera.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Frame period, µs. Default 33 333 (30 Hz).
+    #[serde(default = "default_period")]
+    pub period_us: u64,
+    /// Readout and transfer: a frame arrives this long after its exposure, µs. Default 15 000.
+    #[serde(default = "default_readout")]
+    pub readout_us: u64,
+    /// Image size, px. Default 928 × 480 (the paper's scale, widened to the left so the
+    /// inserted peg stays in view).
+    #[serde(default = "default_size")]
+    pub size_px: [u32; 2],
+    /// µm per pixel (x, y) the host tracks with. Default the paper's 5.265625, 5.25.
+    #[serde(default = "default_scale")]
+    pub um_per_px: [f64; 2],
+    /// Fixture origin in the image, continuous px. Default (285, 0).
+    #[serde(default = "default_origin")]
+    pub origin_px: [f64; 2],
+    /// Seed offset of the renderer's sensor noise stream (kept for reproducible variants).
+    #[serde(default)]
+    pub noise_stream: u64,
+}
+
+fn default_period() -> u64 {
+    33_333
+}
+fn default_readout() -> u64 {
+    15_000
+}
+fn default_size() -> [u32; 2] {
+    [928, 480]
+}
+fn default_scale() -> [f64; 2] {
+    [5.265625, 5.25]
+}
+fn default_origin() -> [f64; 2] {
+    [285.0, 0.0]
+}
+
+impl Default for CameraSpec {
+    fn default() -> Self {
+        Self {
+            period_us: default_period(),
+            readout_us: default_readout(),
+            size_px: default_size(),
+            um_per_px: default_scale(),
+            origin_px: default_origin(),
+            noise_stream: 0,
+        }
+    }
+}
+
+impl CameraSpec {
+    /// The calibration the host tracks with.
+    pub fn calibration(&self) -> Result<Calibration, Error> {
+        let [sx, sy] = self.um_per_px;
+        let [ox, oy] = self.origin_px;
+        Calibration::new(sx, sy, Vec2::new(ox, oy))
+    }
+}
+
+/// Faults to inject (see `mesopush_firmware_sim::FaultConfig`; all default to none, line
+/// latency 200 ± 100 µs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+#[allow(missing_docs)]
+pub struct FaultSpec {
+    pub link_drop: f64,
+    pub link_corrupt: f64,
+    pub link_duplicate: f64,
+    pub link_delay: f64,
+    pub link_latency_us: u64,
+    pub link_jitter_us: u64,
+    pub link_delay_us: u64,
+    pub stall_per_s: f64,
+    pub limit_switch_per_s: f64,
+    pub reboot_per_s: f64,
+    pub frame_drop: f64,
+    pub frame_black: f64,
+}
+
+impl Default for FaultSpec {
+    fn default() -> Self {
+        let f = FaultConfig::NONE;
+        Self {
+            link_drop: f.link_drop,
+            link_corrupt: f.link_corrupt,
+            link_duplicate: f.link_duplicate,
+            link_delay: f.link_delay,
+            link_latency_us: f.link_latency_us,
+            link_jitter_us: f.link_jitter_us,
+            link_delay_us: f.link_delay_us,
+            stall_per_s: f.stall_per_s,
+            limit_switch_per_s: f.limit_switch_per_s,
+            reboot_per_s: f.reboot_per_s,
+            frame_drop: f.frame_drop,
+            frame_black: f.frame_black,
+        }
+    }
+}
+
+impl FaultSpec {
+    /// As the firmware simulator's config (validated).
+    pub fn to_config(&self) -> Result<FaultConfig, Error> {
+        let c = FaultConfig {
+            link_drop: self.link_drop,
+            link_corrupt: self.link_corrupt,
+            link_duplicate: self.link_duplicate,
+            link_delay: self.link_delay,
+            link_latency_us: self.link_latency_us,
+            link_jitter_us: self.link_jitter_us,
+            link_delay_us: self.link_delay_us,
+            stall_per_s: self.stall_per_s,
+            limit_switch_per_s: self.limit_switch_per_s,
+            reboot_per_s: self.reboot_per_s,
+            frame_drop: self.frame_drop,
+            frame_black: self.frame_black,
+        };
+        c.validate().map_err(|e| Error::invalid("world faults", e.to_string()))?;
+        Ok(c)
+    }
+}
+
+/// A parsed world file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldSpec {
+    /// Free-text name.
+    #[serde(default)]
+    pub name: String,
+    /// The world's physics.
+    #[serde(default)]
+    pub model: ModelSpec,
+    /// The peg's start.
+    #[serde(default)]
+    pub peg: PegSpec,
+    /// Stage registration.
+    #[serde(default)]
+    pub stage: StageSpec,
+    /// The camera.
+    #[serde(default)]
+    pub camera: CameraSpec,
+    /// Faults to inject.
+    #[serde(default)]
+    pub faults: FaultSpec,
+}
+
+/// A world file: its parsed contents, its text verbatim and where it came from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorldFile {
+    /// Parsed contents.
+    pub spec: WorldSpec,
+    /// The model the world runs (resolved from `spec.model`).
+    pub model: Model,
+    /// The file's text, verbatim.
+    pub text: String,
+    /// The file (absent: embedded or built in code).
+    pub path: Option<PathBuf>,
+}
+
+impl WorldFile {
+    /// Parses `text` (`path` names it in errors and anchors a relative model path).
+    pub fn from_toml(text: &str, path: Option<&Path>) -> Result<Self, Error> {
+        let name = path.map_or_else(|| PathBuf::from("<world>"), Path::to_path_buf);
+        let spec: WorldSpec = toml::from_str(text)
+            .map_err(|e| Error::Parse { path: name.clone(), message: e.to_string() })?;
+        let model = match (&spec.model.inline, &spec.model.path) {
+            (Some(_), Some(_)) => {
+                return Err(Error::invalid("world model", "give either `inline` or `path`"));
+            }
+            (Some(m), None) => m.clone(),
+            (None, Some(p)) => {
+                let base = path.and_then(Path::parent).unwrap_or(Path::new("."));
+                Model::load(&base.join(p))?
+            }
+            (None, None) => Model::default(),
+        };
+        model.validate()?;
+        spec.faults.to_config()?;
+        spec.camera.calibration()?;
+        let [w, h] = spec.camera.size_px;
+        if !(16..=4096).contains(&w) || !(16..=4096).contains(&h) {
+            return Err(Error::invalid("world camera", "size_px must be within 16..=4096"));
+        }
+        if !(1_000..=10_000_000).contains(&spec.camera.period_us) {
+            return Err(Error::invalid("world camera", "period_us must be in 1000..=10000000"));
+        }
+        if let Some(p) = spec.peg.perturb {
+            if !p.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                return Err(Error::invalid("world peg", "perturb must be finite and ≥ 0"));
+            }
+        }
+        Ok(Self { spec, model, text: text.to_string(), path: path.map(Path::to_path_buf) })
+    }
+
+    /// Loads a world file.
+    pub fn load(path: &Path) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Self::from_toml(&text, Some(path))
+    }
+
+    /// The embedded default world.
+    pub fn default_world() -> Self {
+        Self::from_toml(DEFAULT_WORLD_TOML, None).expect("the embedded default world is valid")
+    }
+
+    /// The description stored in `trial.json`: the text verbatim plus the parsed form.
+    pub fn description(&self) -> serde_json::Value {
+        serde_json::json!({
+            "file": self.path.as_ref().map(|p| p.display().to_string()),
+            "toml": self.text,
+            "resolved_model": self.model,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_world_parses() {
+        let w = WorldFile::default_world();
+        assert_eq!(w.spec.camera.period_us, 33_333);
+        assert_eq!(w.model, Model::default());
+    }
+
+    #[test]
+    fn unknown_fields_and_bad_rates_are_named() {
+        let e = WorldFile::from_toml("[camera]\nperiod = 3\n", None).unwrap_err().to_string();
+        assert!(e.contains("period"), "{e}");
+        let e = WorldFile::from_toml("[faults]\nlink_drop = 2.0\n", None).unwrap_err();
+        assert!(e.to_string().contains("link_drop"), "{e}");
+    }
+}
