@@ -9,6 +9,11 @@ fn mesopush(args: &[&str]) -> Output {
 }
 
 fn batch_file(dir: &Path, extra: &str) -> PathBuf {
+    let extra = if extra.contains("runner") {
+        extra.to_string()
+    } else {
+        format!("runner = \"sim\"\n{extra}")
+    };
     let plan = Path::new(env!("CARGO_MANIFEST_DIR")).join("../plans/table2.toml");
     let text = format!(
         "name = \"cli\"\nseed = 9\ntrials = 4\nplans = [{plan:?}]\n{extra}\n\
@@ -46,6 +51,7 @@ fn bad_batch_files_are_clear_errors() {
     let b = batch_file(tmp.path(), "runner = \"warp\"");
     let o = mesopush(&["batch", "run", b.to_str().unwrap(), "--out", "x"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("\"warp\""));
+    let b = batch_file(tmp.path(), "");
     let o = mesopush(&["batch", "run", b.to_str().unwrap(), "--shard", "2/2"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("I/N"));
 }

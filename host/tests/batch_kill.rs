@@ -20,7 +20,7 @@ const KILLS: usize = 22;
 fn write_batch(dir: &Path) -> PathBuf {
     let plan = Path::new(env!("CARGO_MANIFEST_DIR")).join("../plans/table2.toml");
     let text = format!(
-        "name = \"kill test\"\nseed = 77\ntrials = {TRIALS}\nplans = [{plan:?}]\n\
+        "name = \"kill test\"\nseed = 77\ntrials = {TRIALS}\nrunner = \"sim\"\nplans = [{plan:?}]\n\
          [camera]\nmax_frames = 2\nframe_drop = 0.3\nframe_black = 0.3\n\
          [policy]\ntimeout_s = 120.0\nmax_attempts = 2\nretry_on = [\"faulted\"]\n"
     );

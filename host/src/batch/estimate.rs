@@ -50,19 +50,22 @@ pub struct Estimate {
 }
 
 impl Camera {
-    /// A camera over `walls` looking at `peg`; the tracker's θ hint is `theta_hint_rad`.
+    /// A camera (`settings`: size, optics, calibration) over `walls` looking at `peg`; the
+    /// tracker uses the same calibration and starts from `theta_hint_rad`.
     pub fn new(
+        settings: RenderSettings,
         walls: &[ConvexPolygon],
         peg: &ConvexPolygon,
         theta_hint_rad: f64,
         spec: &CameraSpec,
     ) -> Result<Self, Error> {
-        let settings = RenderSettings::default();
+        let calibration = settings.calibration;
         let mut renderer = Renderer::new(settings, walls)?;
         let empty = Scene { walls, peg: None, peg_pose: Pose::default(), probe_tip: None };
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x0bac_0bac);
         let bg = renderer.render_averaged(&empty, 16, &mut rng).image;
-        let track = TrackSettings { peg: peg.clone(), theta_hint_rad, ..Default::default() };
+        let track =
+            TrackSettings { peg: peg.clone(), theta_hint_rad, calibration, ..Default::default() };
         let tracker = Tracker::new(&bg, track)?;
         Ok(Self { renderer, tracker, walls: walls.to_vec(), peg: peg.clone(), spec: spec.clone() })
     }

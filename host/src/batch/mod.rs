@@ -13,6 +13,7 @@ pub mod fsx;
 pub mod journal;
 pub mod merge;
 pub mod report;
+pub mod rig_runner;
 pub mod runner;
 pub mod sim_runner;
 pub mod spec;
@@ -20,6 +21,7 @@ pub mod stats;
 pub mod supervise;
 
 pub use engine::{BatchConfig, Manifest, Progress, Session, run};
+pub use rig_runner::RigRunner;
 pub use runner::{Cancel, RunnerFactory, TrialJob, TrialResult, TrialRunner, Verdict};
 pub use sim_runner::SimRunner;
 pub use spec::{BatchSpec, Shard};

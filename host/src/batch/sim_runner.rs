@@ -13,7 +13,7 @@ use crate::Error;
 use crate::geom::Pose;
 use crate::sim::{Fixture, Model, Replay, SimSettings, Simulator, replay};
 use crate::trial::{EventRow, Outcome, PoseRow, ProbeRow, TrialMeta, TrialState, TrialWriter};
-use crate::vision::Calibration;
+use crate::vision::{Calibration, RenderSettings};
 use rand::SeedableRng;
 use std::path::Path;
 
@@ -41,7 +41,13 @@ impl SimRunner {
     ) -> Result<Self, Error> {
         let camera = if camera.estimate_start {
             let peg = model.part.polygon().clone();
-            Some(Camera::new(&fixture.walls, &peg, theta_hint_rad, camera)?)
+            Some(Camera::new(
+                RenderSettings::default(),
+                &fixture.walls,
+                &peg,
+                theta_hint_rad,
+                camera,
+            )?)
         } else {
             None
         };
@@ -186,7 +192,7 @@ impl TrialRunner for SimRunner {
 }
 
 /// The camera phase gave no start pose: a detected fault; the probe never moved.
-fn no_start_pose(
+pub(super) fn no_start_pose(
     dir: &Path,
     meta: TrialMeta,
     e: &Estimate,

@@ -24,7 +24,8 @@ pub struct BatchSpec {
     pub seed: u64,
     /// Number of trials.
     pub trials: u64,
-    /// Which runner: `sim` (host simulator; fast Monte Carlo). Default `sim`.
+    /// Which runner: `rig` (the whole loop: executor, firmware simulator, camera, tracking;
+    /// the default) or `sim` (the host simulator alone; fast Monte Carlo).
     #[serde(default = "default_runner")]
     pub runner: String,
     /// Output directory (relative to the working directory); `--out` overrides it.
@@ -45,7 +46,7 @@ pub struct BatchSpec {
 }
 
 fn default_runner() -> String {
-    "sim".into()
+    "rig".into()
 }
 
 /// The world a trial runs in.
@@ -59,9 +60,15 @@ pub struct WorldSpec {
     /// Model TOML (relative to the batch file); default the nominal model.
     #[serde(default)]
     pub model: Option<PathBuf>,
-    /// Fixture TOML (relative to the batch file); default the paper's fixture.
+    /// Fixture TOML (relative to the batch file); default the paper's fixture. `sim` only
+    /// (the `rig` world is the paper's fixture).
     #[serde(default)]
     pub fixture: Option<PathBuf>,
+    /// `rig` only: the world file (`worlds/*.toml` format: the world's model, camera,
+    /// faults), relative to the batch file; default the embedded default world. Its
+    /// `peg.perturb` is ignored (`perturbation` above applies).
+    #[serde(default)]
+    pub file: Option<PathBuf>,
 }
 
 fn default_perturbation() -> [f64; 3] {
@@ -70,7 +77,7 @@ fn default_perturbation() -> [f64; 3] {
 
 impl Default for WorldSpec {
     fn default() -> Self {
-        Self { perturbation: default_perturbation(), model: None, fixture: None }
+        Self { perturbation: default_perturbation(), model: None, fixture: None, file: None }
     }
 }
 
@@ -173,6 +180,9 @@ impl BatchSpec {
     pub fn validate(&self) -> Result<(), Error> {
         if self.trials == 0 || self.trials > MAX_TRIALS {
             return Err(bad(format!("trials = {} must be in 1..={MAX_TRIALS}", self.trials)));
+        }
+        if self.runner != "sim" && self.runner != "rig" {
+            return Err(bad(format!("runner = {:?}: expected \"rig\" or \"sim\"", self.runner)));
         }
         if self.plans.is_empty() {
             return Err(bad("plans must name at least one plan file"));

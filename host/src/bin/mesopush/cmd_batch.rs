@@ -6,9 +6,10 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_host::batch::stats::{Loaded, Summary, summarize};
 use mesopush_host::batch::{
-    BatchConfig, BatchSpec, Progress, RunnerFactory, Session, Shard, SimRunner, TrialRunner, merge,
-    report,
+    BatchConfig, BatchSpec, Progress, RigRunner, RunnerFactory, Session, Shard, SimRunner,
+    TrialRunner, merge, report,
 };
+use mesopush_host::rig::WorldFile;
 use mesopush_host::sim::{Fixture, Model};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -82,12 +83,16 @@ pub(crate) fn run(args: &BatchArgs) -> Result<()> {
 }
 
 fn factory(spec: &BatchSpec, base: &Path, theta_hint_rad: f64) -> Result<RunnerFactory> {
-    if spec.runner != "sim" {
-        bail!(
-            "runner {:?} is not available in this build: only \"sim\" (the host simulator) is; \
-             the full-loop \"rig\" runner needs host::rig",
-            spec.runner
-        );
+    if spec.runner == "rig" {
+        let world = match &spec.world.file {
+            Some(p) => WorldFile::load(&base.join(p))?,
+            None => WorldFile::default_world(),
+        };
+        let camera = spec.camera.clone();
+        return Ok(Box::new(move || {
+            let r = RigRunner::new(world.clone(), &camera, theta_hint_rad)?;
+            Ok(Box::new(r) as Box<dyn TrialRunner>)
+        }));
     }
     let model = match &spec.world.model {
         Some(p) => Model::load(&base.join(p))?,
