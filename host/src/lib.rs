@@ -4,6 +4,7 @@
 //! `f64`, with the unit in every field name (`x_um`, `theta_rad`, `speed_um_s`). Conversions
 //! to the wire's sized integers (nm `i32`, µs `u64`, nm/s `u32`) live in [`units`] only.
 
+pub mod batch;
 pub mod diagnose;
 pub mod effects;
 pub mod error;

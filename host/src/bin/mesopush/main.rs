@@ -1,6 +1,7 @@
 //! `mesopush`: the host command line. Thin over `mesopush_host`: each subcommand module parses
 //! its flags, calls the library and prints.
 
+mod cmd_batch;
 mod cmd_demo;
 mod cmd_diagnose;
 mod cmd_diagnose_confusion;
@@ -36,6 +37,8 @@ enum Command {
     Identify(cmd_identify::IdentifyArgs),
     /// Diagnose trials: held-out residuals, their structure, the missing effect, before/after.
     Diagnose(cmd_diagnose::DiagnoseArgs),
+    /// Unattended trial batches: run (resumable, shardable), merge shards, report.
+    Batch(cmd_batch::BatchArgs),
 }
 
 /// Runs the command; errors are printed as one `error: …` line (with their causes) and exit
@@ -60,5 +63,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Track(args) => cmd_track::run(&args),
         Command::Identify(args) => cmd_identify::run(&args),
         Command::Diagnose(args) => cmd_diagnose::run(&args),
+        Command::Batch(args) => cmd_batch::run(&args),
     }
 }
