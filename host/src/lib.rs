@@ -7,6 +7,7 @@
 pub mod error;
 pub mod geom;
 pub mod lcp;
+pub mod plan;
 pub mod plot;
 pub mod sim;
 pub mod units;

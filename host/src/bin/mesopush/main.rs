@@ -2,6 +2,7 @@
 //! its flags, calls the library and prints.
 
 mod cmd_lcp;
+mod cmd_plan;
 mod cmd_render;
 mod cmd_sim;
 mod cmd_track;
@@ -24,6 +25,8 @@ enum Command {
     Lcp(cmd_lcp::LcpArgs),
     /// Render a synthetic microscope sequence (PNG frames, frames.csv, truth.csv, bg.png).
     Render(cmd_render::RenderArgs),
+    /// Design a pushing plan with the paper's RRT over simulated pushes; writes plan TOML.
+    Plan(cmd_plan::PlanArgs),
     /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
     Track(cmd_track::TrackArgs),
 }
@@ -47,5 +50,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Lcp(args) => cmd_lcp::run(args),
         Command::Render(args) => cmd_render::run(&args),
         Command::Track(args) => cmd_track::run(&args),
+        Command::Plan(args) => cmd_plan::run(&args),
     }
 }

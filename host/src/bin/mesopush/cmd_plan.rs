@@ -1,0 +1,168 @@
+//! `mesopush plan`: design a pushing plan with the paper's RRT (or, with `--robust`, a plan
+//! optimised against the Monte Carlo success rate) and write it as plan TOML.
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use mesopush_host::geom::Pose;
+use mesopush_host::plan::{Progress, RrtSettings, plan_rrt};
+use mesopush_host::plot::{PlanFigure, draw_plan};
+use mesopush_host::sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
+use rand::SeedableRng;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Design a pushing plan (RRT over simulated pushes) and write it as plan TOML.
+#[derive(Debug, Args)]
+pub(crate) struct PlanArgs {
+    /// Seed of every random choice (same seed, same plan).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Where to write the plan TOML.
+    #[arg(long, default_value = "plan.toml")]
+    out: PathBuf,
+    /// Model TOML (part, supports, friction); default: the nominal model.
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Fixture TOML (walls, goal); default: the reconstructed paper fixture.
+    #[arg(long)]
+    fixture: Option<PathBuf>,
+    /// Peg start pose "x_um,y_um,theta_deg"; default: Table II's (2330, 1210, 89°).
+    #[arg(long, value_parser = parse_pose)]
+    start: Option<Pose>,
+    /// RRT iterations before giving up.
+    #[arg(long, default_value_t = RrtSettings::default().max_iterations)]
+    max_iterations: usize,
+    /// Random pushes simulated per iteration.
+    #[arg(long, default_value_t = RrtSettings::default().inputs_per_iteration)]
+    inputs: usize,
+    /// Pushing locations on the peg boundary.
+    #[arg(long, default_value_t = 100)]
+    locations: usize,
+    /// Wall-clock limit, s (the search stops and reports `found: false`).
+    #[arg(long, default_value_t = 60.0)]
+    time_limit_s: f64,
+    /// Also draw the plan (Fig. 6 style) to this PNG or SVG.
+    #[arg(long)]
+    figure: Option<PathBuf>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_pose(s: &str) -> Result<Pose, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>().map_err(|e| format!("{t:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, t] if v.iter().all(|a| a.is_finite()) => Ok(Pose::new(x, y, t.to_radians())),
+        _ => Err("expected three finite numbers x_um,y_um,theta_deg".into()),
+    }
+}
+
+pub(crate) fn load_world(model: Option<&Path>, fixture: Option<&Path>) -> Result<Simulator> {
+    let model = model.map_or_else(|| Ok(Model::default()), Model::load)?;
+    let fixture = fixture.map_or_else(|| Ok(Fixture::paper()), Fixture::load)?;
+    Ok(Simulator::new(model, fixture, SimSettings::default())?)
+}
+
+pub(crate) fn run(args: &PlanArgs) -> Result<()> {
+    let mut sim = load_world(args.model.as_deref(), args.fixture.as_deref())?;
+    let start = args.start.unwrap_or_else(|| Plan::table2().peg_start_pose());
+    let settings = RrtSettings {
+        max_iterations: args.max_iterations,
+        inputs_per_iteration: args.inputs.max(1),
+        pushes: mesopush_host::plan::pushes::PushSettings {
+            n_locations: args.locations.max(4),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
+    let bar = bar(settings.max_iterations as u64, args.json);
+    let t0 = Instant::now();
+    let limit = args.time_limit_s;
+    let mut on_progress = |p: Progress| {
+        bar.set_position(p.iteration as u64);
+        bar.set_message(format!("tree {}", p.tree_size));
+        t0.elapsed().as_secs_f64() < limit
+    };
+    let result = plan_rrt(&mut sim, start, &settings, &mut rng, &mut on_progress)?;
+    let planning_ms = t0.elapsed().as_secs_f64() * 1e3;
+    bar.finish_and_clear();
+    let found = result.plan.is_some();
+    let (moves, travel) =
+        result.plan.as_ref().map_or((0, 0.0), |p| (p.moves_um.len(), p.travel_um()));
+    if let Some(plan) = &result.plan {
+        std::fs::write(&args.out, plan.to_toml())
+            .with_context(|| format!("writing {}", args.out.display()))?;
+        if let Some(fig) = &args.figure {
+            figure(&mut sim, plan, fig)?;
+        }
+    }
+    let summary = json!({
+        "found": found, "pushes": result.pushes, "moves": moves, "travel_um": travel,
+        "iterations": result.iterations, "tree_size": result.tree_size,
+        "simulated_pushes": result.simulated_pushes,
+        "rejected_at_verification": result.rejected_at_verification,
+        "planning_ms": planning_ms, "seed": args.seed,
+        "plan": if found { Some(&args.out) } else { None },
+    });
+    if args.json {
+        println!("{summary}");
+    } else {
+        print_text(&summary);
+    }
+    if !found && !args.json {
+        bail!("no plan found in {} iterations ({planning_ms:.0} ms)", result.iterations);
+    }
+    Ok(())
+}
+
+fn print_text(s: &serde_json::Value) {
+    println!("found: {}", s["found"]);
+    println!(
+        "pushes: {} ({} probe moves, {:.0} µm of probe travel)",
+        s["pushes"],
+        s["moves"],
+        s["travel_um"].as_f64().unwrap_or(0.0)
+    );
+    println!(
+        "iterations: {}, tree size: {}, pushes simulated: {}",
+        s["iterations"], s["tree_size"], s["simulated_pushes"]
+    );
+    println!("planning time: {:.0} ms", s["planning_ms"].as_f64().unwrap_or(0.0));
+    if let Some(p) = s["plan"].as_str() {
+        println!("plan: {p}");
+    }
+}
+
+pub(crate) fn bar(len: u64, hidden: bool) -> ProgressBar {
+    if hidden {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(len);
+    let style = ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")
+        .expect("constant template");
+    bar.set_style(style);
+    bar
+}
+
+pub(crate) fn figure(sim: &mut Simulator, plan: &Plan, path: &Path) -> Result<()> {
+    let r = replay(sim, plan, None)?;
+    let poses: Vec<_> = r.samples.iter().map(|s| s.peg).collect();
+    let probe: Vec<_> = r.samples.iter().map(|s| s.probe_um).collect();
+    let title = format!("{} — {}", plan.name, if r.inserted { "inserted" } else { "NOT inserted" });
+    let fig = PlanFigure {
+        title: &title,
+        walls: &sim.fixture().walls,
+        goal: Some(&sim.fixture().goal),
+        part: sim.model().part.polygon(),
+        poses: &poses,
+        probe_um: &probe,
+        max_outlines: 25,
+    };
+    Ok(draw_plan(&fig, path)?)
+}
