@@ -14,3 +14,10 @@ pub mod steer;
 pub mod tree;
 
 pub use rrt::{Progress, RrtResult, RrtSettings, plan_is_feasible, plan_rrt};
+pub mod montecarlo;
+pub mod sampler;
+pub mod wilson;
+
+pub use montecarlo::{Estimate, MonteCarlo, Trial};
+pub use sampler::{SupportSet, Uncertainty};
+pub mod figures;

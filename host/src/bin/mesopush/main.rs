@@ -4,6 +4,7 @@
 mod cmd_lcp;
 mod cmd_plan;
 mod cmd_render;
+mod cmd_robustness;
 mod cmd_sim;
 mod cmd_track;
 
@@ -27,6 +28,8 @@ enum Command {
     Render(cmd_render::RenderArgs),
     /// Design a pushing plan with the paper's RRT over simulated pushes; writes plan TOML.
     Plan(cmd_plan::PlanArgs),
+    /// Monte Carlo success probability of plans under start-pose, support and friction error.
+    Robustness(cmd_robustness::RobustnessArgs),
     /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
     Track(cmd_track::TrackArgs),
 }
@@ -51,5 +54,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => cmd_render::run(&args),
         Command::Track(args) => cmd_track::run(&args),
         Command::Plan(args) => cmd_plan::run(&args),
+        Command::Robustness(args) => cmd_robustness::run(&args),
     }
 }
