@@ -21,3 +21,8 @@ pub mod wilson;
 pub use montecarlo::{Estimate, MonteCarlo, Trial};
 pub use sampler::{SupportSet, Uncertainty};
 pub mod figures;
+pub mod robust;
+pub mod skeleton;
+
+pub use robust::{RobustResult, RobustSettings, World, design_robust};
+pub use skeleton::Skeleton;
