@@ -154,3 +154,41 @@ impl MonteCarlo<'_> {
         evaluate(self.plan, &worlds, self.fixture, self.settings, tick)
     }
 }
+
+/// CSV header of [`write_trials_csv`].
+pub const TRIALS_HEADER: &str = "trial,dx_um,dy_um,dtheta_deg,mu_probe,mu_wall,mu_s1,mu_s2,mu_s3,\
+r1x_um,r1y_um,r2x_um,r2y_um,r3x_um,r3y_um,support_index,inserted,jammed,final_x_um,final_y_um,\
+final_theta_deg,error";
+
+/// Writes every trial as one CSV row (a pandas user can load it).
+pub fn write_trials_csv(trials: &[Trial], mut w: impl std::io::Write) -> std::io::Result<()> {
+    writeln!(w, "{TRIALS_HEADER}")?;
+    for (i, t) in trials.iter().enumerate() {
+        let m = &t.draw.model;
+        let [r1, r2, r3] = m.support.points_um;
+        let [s1, s2, s3] = m.support.mu_surface;
+        let fp = t.final_pose.map_or([f64::NAN; 3], |p| [p.x_um, p.y_um, p.theta_rad.to_degrees()]);
+        let [dx, dy, dt] = t.draw.offset;
+        let si = t.draw.support_index.map_or(String::new(), |i| i.to_string());
+        let err = t.error.as_deref().unwrap_or("").replace([',', '\n'], ";");
+        writeln!(
+            w,
+            "{i},{dx:.3},{dy:.3},{dt:.4},{:.4},{:.4},{s1:.4},{s2:.4},{s3:.4},{:.2},{:.2},{:.2},{:.2},\
+             {:.2},{:.2},{si},{},{},{:.3},{:.3},{:.4},{err}",
+            m.mu_probe,
+            m.mu_wall,
+            r1[0],
+            r1[1],
+            r2[0],
+            r2[1],
+            r3[0],
+            r3[1],
+            t.inserted,
+            t.jammed,
+            fp[0],
+            fp[1],
+            fp[2]
+        )?;
+    }
+    Ok(())
+}

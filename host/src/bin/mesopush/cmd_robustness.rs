@@ -6,6 +6,7 @@ use crate::cmd_plan::bar;
 use anyhow::{Context, Result};
 use clap::Args;
 use mesopush_host::plan::figures::{draw_failures, draw_sweep};
+use mesopush_host::plan::montecarlo::write_trials_csv;
 use mesopush_host::plan::{Estimate, MonteCarlo, SupportSet, Uncertainty};
 use mesopush_host::sim::{Fixture, Model, Plan, SimSettings};
 use serde_json::{Value, json};
@@ -51,7 +52,7 @@ pub(crate) struct RobustnessArgs {
     /// Also sweep the uncertainty box's scale over 0.5, 0.75, 1, 1.5, 2 and plot it.
     #[arg(long)]
     sweep: bool,
-    /// Output directory for the figures.
+    /// Output directory for the figures and the per-trial CSV (`trials_<plan>.csv`).
     #[arg(long, default_value = "runs/robustness")]
     out: PathBuf,
     /// Print a Markdown table row per plan (name, success, interval, pushes, travel).
@@ -105,6 +106,11 @@ pub(crate) fn run(args: &RobustnessArgs) -> Result<()> {
         let fig = args.out.join(format!("failures_{stem}.png"));
         let title = format!("{}: {}/{} inserted", plan.name, est.successes, est.samples);
         draw_failures(&title, &est.trials, &fig)?;
+        let csv = args.out.join(format!("trials_{stem}.csv"));
+        let file =
+            std::fs::File::create(&csv).with_context(|| format!("creating {}", csv.display()))?;
+        write_trials_csv(&est.trials, std::io::BufWriter::new(file))
+            .with_context(|| format!("writing {}", csv.display()))?;
         let mut row = summary(path, &plan, &est, &fig);
         if args.sweep {
             let pts = sweep(&mc, args.samples, args.seed, args.json)?;
