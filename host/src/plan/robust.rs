@@ -14,13 +14,13 @@ use rand::RngExt;
 /// Optimiser settings (plain data, documented defaults).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RobustSettings {
-    /// CEM generations. Default 10.
+    /// CEM generations. Default 12.
     pub generations: usize,
-    /// Candidates per generation. Default 20.
+    /// Candidates per generation. Default 16.
     pub population: usize,
-    /// Best candidates that set the next generation's distribution. Default 5.
+    /// Best candidates that set the next generation's distribution. Default 4.
     pub elite: usize,
-    /// Sampled worlds each candidate is scored on. Default 48.
+    /// Sampled worlds each candidate is scored on. Default 64.
     pub samples: usize,
     /// Stop early once the best score reaches this rate. Default 1.0 (never early).
     pub target_rate: f64,
@@ -28,7 +28,7 @@ pub struct RobustSettings {
 
 impl Default for RobustSettings {
     fn default() -> Self {
-        Self { generations: 10, population: 20, elite: 5, samples: 48, target_rate: 1.0 }
+        Self { generations: 12, population: 16, elite: 4, samples: 64, target_rate: 1.0 }
     }
 }
 
@@ -85,7 +85,7 @@ pub fn design_robust(
         Ok(evaluate(&plan, &worlds, world.fixture, world.settings, &|| ())?.success_rate)
     };
     let mut mean = Skeleton::table2_like().params;
-    let mut sigma: Vec<f64> = BOUNDS.iter().map(|(lo, hi)| (hi - lo) / 8.0).collect();
+    let mut sigma: Vec<f64> = BOUNDS.iter().map(|(lo, hi)| (hi - lo) / 6.0).collect();
     let mut best = (Skeleton::table2_like(), score(&Skeleton::table2_like())?);
     let (mut evaluations, mut generations) = (1, 0);
     for g in 0..settings.generations {

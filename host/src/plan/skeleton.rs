@@ -1,29 +1,23 @@
 //! A plan skeleton: the shape of the paper's intuitive plan (Table II — rotate the standing
-//! peg by pushing its upper end, come round and slide it in along −x) with its numbers left
-//! free, so an optimiser can tune them for robustness.
+//! peg by pushing its upper end, come round, press it down through its top edge, slide it in
+//! along −x) with its numbers left free, so an optimiser can tune them for robustness.
 //!
-//! The skeleton adds three optional steps the optimiser may use or switch off: a second
-//! rotation stage (the probe dips and pushes on, like Table II's 50 µm dip), a press down
-//! on the top edge to a fixed probe height (it leaves the touched point at that height
-//! whatever height it had, removing y uncertainty), and a staging push that brings the peg
-//! to the channel mouth before the probe re-aims for the final push.
+//! The press is the uncertainty-removing step: a push down to a fixed probe height leaves
+//! the peg's top edge at that height whatever height it had, and the final long push along
+//! −x through the centre of mass jams the peg into the channel mouth, whose walls square it.
 
 use crate::sim::Plan;
 use crate::sim::plan::PegStart;
 
 /// Number of parameters.
-pub const N_PARAMS: usize = 11;
+pub const N_PARAMS: usize = 7;
 
 /// Names of the skeleton's parameters, in order (all µm, fixture frame).
 pub const NAMES: [&str; N_PARAMS] = [
     "rotate_y_um",
     "rotate_end_x_um",
-    "rotate2_dy_um",
-    "rotate2_dx_um",
     "press_x_um",
     "press_y_um",
-    "stage_y_um",
-    "stage_end_x_um",
     "insert_y_um",
     "insert_end_x_um",
     "probe_start_y_um",
@@ -33,12 +27,8 @@ pub const NAMES: [&str; N_PARAMS] = [
 pub const BOUNDS: [(f64, f64); N_PARAMS] = [
     (450.0, 1000.0),
     (900.0, 2300.0),
-    (-100.0, 400.0),
-    (0.0, 800.0),
     (1000.0, 3000.0),
     (700.0, 1250.0),
-    (1200.0, 1800.0),
-    (900.0, 2400.0),
     (1250.0, 1750.0),
     (350.0, 1200.0),
     (1000.0, 1600.0),
@@ -48,8 +38,6 @@ pub const BOUNDS: [(f64, f64); N_PARAMS] = [
 const CLEAR_X_UM: f64 = 3100.0;
 /// Probe x at the start, µm (Table II's 3050).
 const START_X_UM: f64 = 3050.0;
-/// How far the probe lifts off after the press and backs off after the staging push, µm.
-const LIFT_UM: f64 = 150.0;
 
 /// A skeleton instance.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,15 +47,10 @@ pub struct Skeleton {
 }
 
 impl Skeleton {
-    /// Table II's numbers (its 50 µm probe dip as the second rotation stage, no extra
-    /// travel), the press at the rotated peg's middle to the height that centres it on the
-    /// channel, and the staging push stopping before the mouth.
+    /// Table II's numbers, with the press placed at the middle of the rotated peg and the
+    /// probe pressing to the height that centres it on the channel.
     pub fn table2_like() -> Self {
-        Self {
-            params: [
-                640.0, 1550.0, 50.0, 0.0, 2000.0, 990.0, 1415.0, 1800.0, 1415.0, 550.0, 1240.0,
-            ],
-        }
+        Self { params: [640.0, 1550.0, 2000.0, 990.0, 1415.0, 550.0, 1240.0] }
     }
 
     /// Parameters clamped into [`BOUNDS`].
@@ -80,25 +63,18 @@ impl Skeleton {
 
     /// The plan for a peg starting at `peg_start` (Table II's start in the paper).
     pub fn to_plan(&self, name: &str, peg_start: PegStart) -> Plan {
-        let [ry, rx, ry2, rx2, px, py, gy, gx, iy, ix, sy] = self.params;
-        let (ry2, rx2) = (ry + ry2, rx - rx2);
-        let up = ry.min(ry2).min(py) - 60.0;
+        let [ry, rx, px, py, iy, ix, sy] = self.params;
         // Probe waypoints; consecutive ones differ in one coordinate only.
         let path = [
             [START_X_UM, sy],
             [START_X_UM, ry],
             [rx, ry],
-            [rx, ry2],
-            [rx2, ry2],
-            [rx2, up],
-            [px, up],
+            [rx, ry.min(py) - 60.0],
+            [px, ry.min(py) - 60.0],
             [px, py],
-            [px, py - LIFT_UM],
-            [CLEAR_X_UM, py - LIFT_UM],
-            [CLEAR_X_UM, gy],
-            [gx, gy],
-            [gx + LIFT_UM, gy],
-            [gx + LIFT_UM, iy],
+            [px, py - 150.0],
+            [CLEAR_X_UM, py - 150.0],
+            [CLEAR_X_UM, iy],
             [ix, iy],
         ];
         let moves = path

@@ -234,6 +234,22 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     if let Some(fig) = &args.figure {
         figure(sim, &r.plan, fig)?;
     }
+    let out =
+        RobustOutput { result: &r, est: &est, feasible, planning_ms, train: settings.samples };
+    print_robust(args, &out);
+    Ok(())
+}
+
+struct RobustOutput<'a> {
+    result: &'a mesopush_host::plan::RobustResult,
+    est: &'a mesopush_host::plan::Estimate,
+    feasible: bool,
+    planning_ms: f64,
+    train: usize,
+}
+
+fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
+    let (r, est, feasible, planning_ms) = (o.result, o.est, o.feasible, o.planning_ms);
     let summary = json!({
         "found": true, "robust": true, "nominal_feasible": feasible,
         "success_rate": est.success_rate, "ci_low": est.ci_low, "ci_high": est.ci_high,
@@ -258,7 +274,7 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
             100.0 * est.success_rate,
             100.0 * est.ci_low,
             100.0 * est.ci_high,
-            settings.samples,
+            o.train,
             100.0 * r.training_rate
         );
         println!(
@@ -266,5 +282,4 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
             r.evaluations, r.generations
         );
     }
-    Ok(())
 }
