@@ -178,6 +178,15 @@ pub fn simulate(
     Ok((outcome, r))
 }
 
+/// Moves of a replayed plan during which the probe pushed the peg (a probe force above
+/// 10⁻⁹ part weights at some step): the plan's pushes, as opposed to its repositioning.
+pub fn pushing_moves(replay: &Replay) -> usize {
+    let mut moves: Vec<usize> =
+        replay.samples.iter().filter(|s| s.probe_force > 1e-9).map(|s| s.move_index).collect();
+    moves.dedup();
+    moves.len()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

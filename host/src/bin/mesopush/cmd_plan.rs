@@ -5,6 +5,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_host::geom::Pose;
+use mesopush_host::plan::pushes::pushing_moves;
 use mesopush_host::plan::{
     MonteCarlo, Progress, RobustSettings, RrtSettings, Uncertainty, World, design_robust,
     plan_is_feasible, plan_rrt,
@@ -234,8 +235,9 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     if let Some(fig) = &args.figure {
         figure(sim, &r.plan, fig)?;
     }
-    let out =
-        RobustOutput { result: &r, est: &est, feasible, planning_ms, train: settings.samples };
+    let pushes = pushing_moves(&replay(sim, &r.plan, None)?);
+    let train = settings.samples;
+    let out = RobustOutput { result: &r, est: &est, feasible, planning_ms, train, pushes };
     print_robust(args, &out);
     Ok(())
 }
@@ -246,6 +248,7 @@ struct RobustOutput<'a> {
     feasible: bool,
     planning_ms: f64,
     train: usize,
+    pushes: usize,
 }
 
 fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
@@ -254,7 +257,7 @@ fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
         "found": true, "robust": true, "nominal_feasible": feasible,
         "success_rate": est.success_rate, "ci_low": est.ci_low, "ci_high": est.ci_high,
         "samples": est.samples, "training_rate": r.training_rate,
-        "pushes": 3, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
+        "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
         "iterations": r.evaluations, "generations": r.generations,
         "planning_ms": planning_ms, "seed": args.seed, "plan": &args.out,
         "parameters": mesopush_host::plan::skeleton::NAMES.iter().zip(r.skeleton.params)

@@ -7,8 +7,9 @@ use anyhow::{Context, Result};
 use clap::Args;
 use mesopush_host::plan::figures::{draw_failures, draw_sweep};
 use mesopush_host::plan::montecarlo::write_trials_csv;
+use mesopush_host::plan::pushes::pushing_moves;
 use mesopush_host::plan::{Estimate, MonteCarlo, SupportSet, Uncertainty};
-use mesopush_host::sim::{Fixture, Model, Plan, SimSettings};
+use mesopush_host::sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -112,6 +113,8 @@ pub(crate) fn run(args: &RobustnessArgs) -> Result<()> {
         write_trials_csv(&est.trials, std::io::BufWriter::new(file))
             .with_context(|| format!("writing {}", csv.display()))?;
         let mut row = summary(path, &plan, &est, &fig);
+        let mut sim = Simulator::new(model.clone(), fixture.clone(), settings.clone())?;
+        row["pushes_nominal"] = json!(pushing_moves(&replay(&mut sim, &plan, None)?));
         if args.sweep {
             let pts = sweep(&mc, args.samples, args.seed, args.json)?;
             row["sweep"] = json!(pts.iter().map(|p| json!({"scale": p.0, "success_rate": p.1, "ci_low": p.2, "ci_high": p.3})).collect::<Vec<_>>());
@@ -173,18 +176,19 @@ fn print(rows: &[Value], args: &RobustnessArgs) {
         return;
     }
     if args.markdown {
-        println!("| plan | success | 95 % interval | moves | probe travel [µm] |");
-        println!("|---|---|---|---|---|");
+        println!("| plan | success | 95 % interval | pushes | moves | probe travel [µm] |");
+        println!("|---|---|---|---|---|---|");
     }
     for r in rows {
         let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
         if args.markdown {
             println!(
-                "| {} | {:.1} % | {:.1}–{:.1} % | {} | {:.0} |",
+                "| {} | {:.1} % | {:.1}–{:.1} % | {} | {} | {:.0} |",
                 r["name"].as_str().unwrap_or(""),
                 100.0 * f("success_rate"),
                 100.0 * f("ci_low"),
                 100.0 * f("ci_high"),
+                r["pushes_nominal"],
                 r["moves"],
                 f("travel_um")
             );
