@@ -142,3 +142,29 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
         .unwrap();
     assert!(a.training_rate >= e0.success_rate, "{} < {}", a.training_rate, e0.success_rate);
 }
+
+#[test]
+fn support_set_files_load_as_toml_or_json_and_name_a_bad_candidate() {
+    use mesopush_host::plan::SupportSet;
+    let dir = tempfile::tempdir().unwrap();
+    let model = Model::default();
+    let toml_path = dir.path().join("supports.toml");
+    std::fs::write(
+        &toml_path,
+        "[[support]]\npoints_um = [[-250.0, 440.0], [50.0, -330.0], [250.0, 60.0]]\n\
+         mu_surface = [0.3, 0.3, 0.3]\n[[support]]\n\
+         points_um = [[-200.0, -250.0], [-200.0, 250.0], [400.0, 0.0]]\n\
+         mu_surface = [0.25, 0.3, 0.35]\n",
+    )
+    .unwrap();
+    let set = SupportSet::load(&toml_path, &model).unwrap();
+    assert_eq!(set.support.len(), 2);
+    let json_path = dir.path().join("supports.json");
+    std::fs::write(&json_path, serde_json::to_string(&set.support).unwrap()).unwrap();
+    assert_eq!(SupportSet::load(&json_path, &model).unwrap(), set);
+    let bad = toml_path.with_file_name("bad.toml");
+    let text = std::fs::read_to_string(&toml_path).unwrap().replace("400.0, 0.0", "4000.0, 0.0");
+    std::fs::write(&bad, text).unwrap();
+    let e = SupportSet::load(&bad, &model).unwrap_err().to_string();
+    assert!(e.contains("support 2") && e.contains("bad.toml"), "{e}");
+}
