@@ -11,6 +11,7 @@ pub mod error;
 pub mod geom;
 pub mod ident;
 pub mod lcp;
+pub mod plan;
 pub mod plot;
 pub mod rig;
 pub mod sim;

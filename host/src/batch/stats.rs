@@ -99,15 +99,9 @@ pub struct Summary {
 
 /// Wilson score interval for `k` successes in `n` trials at z = 1.96.
 pub fn wilson95(k: u64, n: u64) -> [f64; 2] {
-    if n == 0 {
-        return [0.0, 1.0];
-    }
-    let (k, n, z) = (k as f64, n as f64, 1.959_963_984_540_054);
-    let p = k / n;
-    let den = 1.0 + z * z / n;
-    let centre = (p + z * z / (2.0 * n)) / den;
-    let half = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / den;
-    [(centre - half).max(0.0), (centre + half).min(1.0)]
+    let (lo, hi) =
+        crate::plan::wilson::wilson_interval(k as usize, n as usize, crate::plan::wilson::Z95);
+    [lo, hi]
 }
 
 /// The reason's class: the text before its first `:` (numbers come after it).

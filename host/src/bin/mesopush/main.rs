@@ -7,7 +7,9 @@ mod cmd_diagnose;
 mod cmd_diagnose_confusion;
 mod cmd_identify;
 mod cmd_lcp;
+mod cmd_plan;
 mod cmd_render;
+mod cmd_robustness;
 mod cmd_sim;
 mod cmd_track;
 
@@ -31,6 +33,10 @@ enum Command {
     Lcp(cmd_lcp::LcpArgs),
     /// Render a synthetic microscope sequence (PNG frames, frames.csv, truth.csv, bg.png).
     Render(cmd_render::RenderArgs),
+    /// Design a pushing plan with the paper's RRT over simulated pushes; writes plan TOML.
+    Plan(cmd_plan::PlanArgs),
+    /// Monte Carlo success probability of plans under start-pose, support and friction error.
+    Robustness(cmd_robustness::RobustnessArgs),
     /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
     Track(cmd_track::TrackArgs),
     /// Identify probe friction and supports from unconstrained pushing trials (Table I).
@@ -64,5 +70,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Identify(args) => cmd_identify::run(&args),
         Command::Diagnose(args) => cmd_diagnose::run(&args),
         Command::Batch(args) => cmd_batch::run(&args),
+        Command::Plan(args) => cmd_plan::run(&args),
+        Command::Robustness(args) => cmd_robustness::run(&args),
     }
 }

@@ -1,0 +1,93 @@
+//! A plan skeleton: the shape of the paper's intuitive plan (Table II — rotate the standing
+//! peg by pushing its upper end, come round, press it down through its top edge, slide it in
+//! along −x) with its numbers left free, so an optimiser can tune them for robustness.
+//!
+//! The press is the uncertainty-removing step: a push down to a fixed probe height leaves
+//! the peg's top edge at that height whatever height it had, and the final long push along
+//! −x through the centre of mass jams the peg into the channel mouth, whose walls square it.
+
+use crate::sim::Plan;
+use crate::sim::plan::PegStart;
+
+/// Number of parameters.
+pub const N_PARAMS: usize = 7;
+
+/// Names of the skeleton's parameters, in order (all µm, fixture frame).
+pub const NAMES: [&str; N_PARAMS] = [
+    "rotate_y_um",
+    "rotate_end_x_um",
+    "press_x_um",
+    "press_y_um",
+    "insert_y_um",
+    "insert_end_x_um",
+    "probe_start_y_um",
+];
+
+/// Search box of each parameter, µm: (low, high).
+pub const BOUNDS: [(f64, f64); N_PARAMS] = [
+    (450.0, 1000.0),
+    (900.0, 2300.0),
+    (1000.0, 3000.0),
+    (700.0, 1250.0),
+    (1250.0, 1750.0),
+    (350.0, 1200.0),
+    (1000.0, 1600.0),
+];
+
+/// Probe x while coming round the peg's right end, µm (Table II's 3100).
+const CLEAR_X_UM: f64 = 3100.0;
+/// Probe x at the start, µm (Table II's 3050).
+const START_X_UM: f64 = 3050.0;
+
+/// A skeleton instance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Skeleton {
+    /// Parameters in the order of [`NAMES`].
+    pub params: [f64; N_PARAMS],
+}
+
+impl Skeleton {
+    /// Table II's numbers, with the press placed at the middle of the rotated peg and the
+    /// probe pressing to the height that centres it on the channel.
+    pub fn table2_like() -> Self {
+        Self { params: [640.0, 1550.0, 2000.0, 990.0, 1415.0, 550.0, 1240.0] }
+    }
+
+    /// Parameters clamped into [`BOUNDS`].
+    pub fn clamped(mut self) -> Self {
+        for (p, (lo, hi)) in self.params.iter_mut().zip(BOUNDS) {
+            *p = p.clamp(lo, hi);
+        }
+        self
+    }
+
+    /// The plan for a peg starting at `peg_start` (Table II's start in the paper).
+    pub fn to_plan(&self, name: &str, peg_start: PegStart) -> Plan {
+        let [ry, rx, px, py, iy, ix, sy] = self.params;
+        // Probe waypoints; consecutive ones differ in one coordinate only.
+        let path = [
+            [START_X_UM, sy],
+            [START_X_UM, ry],
+            [rx, ry],
+            [rx, ry.min(py) - 60.0],
+            [px, ry.min(py) - 60.0],
+            [px, py],
+            [px, py - 150.0],
+            [CLEAR_X_UM, py - 150.0],
+            [CLEAR_X_UM, iy],
+            [ix, iy],
+        ];
+        let moves = path
+            .windows(2)
+            .map(|w| [w[1][0] - w[0][0], w[1][1] - w[0][1]])
+            .filter(|m| m[0] != 0.0 || m[1] != 0.0)
+            .collect();
+        Plan {
+            name: name.into(),
+            speed_um_s: 140.0,
+            peg_start,
+            probe_start_um: path[0],
+            moves_um: moves,
+        }
+    }
+}

@@ -1,0 +1,82 @@
+//! The RRT planner: it finds plans that replay to an insertion, keeps the probe out of the
+//! walls and inside the executor's workspace, and is deterministic for a seed.
+
+use mesopush_host::plan::clearance::{first_wall_violation, in_workspace, max_speed_um_s};
+use mesopush_host::plan::{RrtSettings, plan_is_feasible, plan_rrt};
+use mesopush_host::sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
+use rand::SeedableRng;
+use std::path::Path;
+
+fn sim() -> Simulator {
+    Simulator::new(Model::default(), Fixture::paper(), SimSettings::default()).unwrap()
+}
+
+/// Seed 2 finds a plan in a few dozen iterations with the default settings.
+const SEED: u64 = 2;
+
+fn plan(seed: u64, max_iterations: usize) -> (mesopush_host::plan::RrtResult, Simulator) {
+    let mut s = sim();
+    let settings = RrtSettings { max_iterations, ..Default::default() };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let start = Plan::table2().peg_start_pose();
+    let r = plan_rrt(&mut s, start, &settings, &mut rng, &mut |_| true).unwrap();
+    (r, s)
+}
+
+#[test]
+fn rrt_plan_inserts_the_peg_and_keeps_the_probe_out_of_the_walls() {
+    let (r, mut s) = plan(SEED, 300);
+    let plan =
+        r.plan.unwrap_or_else(|| panic!("seed {SEED}: no plan in {} iterations", r.iterations));
+    assert!(r.pushes >= 2 && r.pushes <= plan.moves_um.len(), "{} pushes", r.pushes);
+    let rep = replay(&mut s, &plan, None).unwrap();
+    assert!(rep.inserted, "seed {SEED}: final pose {:?}", rep.final_pose);
+    assert!(rep.events.is_empty(), "seed {SEED}: {:?}", rep.events);
+    let walls = &s.fixture().walls;
+    assert_eq!(first_wall_violation(plan.probe_start(), &plan.moves_um, walls, 12.5), None);
+    assert!(plan.speed_um_s <= max_speed_um_s());
+    let mut p = plan.probe_start();
+    for m in &plan.moves_um {
+        p += mesopush_host::geom::Vec2::new(m[0], m[1]);
+        assert!(in_workspace(&p), "probe leaves the workspace at {p:?}");
+    }
+    assert!(plan_is_feasible(&mut s, &plan).unwrap());
+    // What `plan --out` writes is what `sim` and the executor load.
+    let back = Plan::from_toml(&plan.to_toml(), Path::new("rrt.toml")).unwrap();
+    assert_eq!(back, plan);
+}
+
+#[test]
+fn same_seed_same_plan() {
+    let (a, _) = plan(SEED, 300);
+    let (b, _) = plan(SEED, 300);
+    assert_eq!(a, b, "seed {SEED}");
+}
+
+#[test]
+fn no_iterations_no_plan_and_a_table2_cut_short_is_not_feasible() {
+    let (r, mut s) = plan(SEED, 0);
+    assert!(r.plan.is_none() && r.iterations == 0 && r.pushes == 0);
+    let mut short = Plan::table2();
+    short.moves_um.truncate(2);
+    assert!(!plan_is_feasible(&mut s, &short).unwrap());
+    assert!(plan_is_feasible(&mut s, &Plan::table2()).unwrap());
+}
+
+#[test]
+fn plan_cli_prints_the_json_summary_and_writes_a_loadable_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plan.toml");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
+        .args(["plan", "--seed", &SEED.to_string(), "--json", "--max-iterations", "300", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["found"], true, "{v}");
+    for k in ["pushes", "iterations", "planning_ms", "tree_size"] {
+        assert!(v[k].is_number(), "{k} missing: {v}");
+    }
+    Plan::load(&out).unwrap();
+}

@@ -1,0 +1,170 @@
+//! The Monte Carlo estimator: Wilson interval coverage on a known Bernoulli, determinism for a
+//! seed and any thread count, a plan that works without uncertainty scores 1, a plan that
+//! cannot insert scores 0, candidate supports are drawn from the given set.
+
+use mesopush_host::plan::montecarlo::draws;
+use mesopush_host::plan::wilson::{Z95, wilson_interval};
+use mesopush_host::plan::{MonteCarlo, Uncertainty};
+use mesopush_host::sim::{Fixture, Model, Plan, SimSettings, SupportDistribution};
+use rand::{RngExt, SeedableRng};
+
+#[test]
+fn wilson_interval_covers_a_known_bernoulli_95_percent_of_the_time() {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    for (p, n) in [(0.3, 50), (0.9, 200), (0.98, 400)] {
+        let reps = 2000;
+        let covered = (0..reps)
+            .filter(|_| {
+                let k = (0..n).filter(|_| rng.random_bool(p)).count();
+                let (lo, hi) = wilson_interval(k, n, Z95);
+                lo <= p && p <= hi
+            })
+            .count();
+        let coverage = covered as f64 / reps as f64;
+        assert!((0.925..=0.975).contains(&coverage), "p {p}, n {n}: coverage {coverage}");
+    }
+}
+
+fn estimate(plan: &Plan, unc: Uncertainty, n: usize, seed: u64) -> mesopush_host::plan::Estimate {
+    let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
+    let mc = MonteCarlo {
+        plan,
+        model: &model,
+        fixture: &fixture,
+        settings: &settings,
+        uncertainty: unc,
+        supports: &[],
+    };
+    mc.estimate(n, seed, &|| ()).unwrap()
+}
+
+fn zero() -> Uncertainty {
+    Uncertainty { dx_um: 0.0, dy_um: 0.0, dtheta_deg: 0.0, dmu: 0.0, support_um: 0.0 }
+}
+
+#[test]
+fn same_seed_same_estimate_for_any_thread_count() {
+    let plan = Plan::table2();
+    let pool = |t| rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap();
+    let a = pool(1).install(|| estimate(&plan, Uncertainty::default(), 12, 3));
+    let b = pool(2).install(|| estimate(&plan, Uncertainty::default(), 12, 3));
+    assert_eq!(a, b, "seed 3");
+    let c = estimate(&plan, Uncertainty::default(), 12, 4);
+    assert_ne!(a.trials, c.trials, "different seeds draw different worlds");
+}
+
+#[test]
+fn a_plan_that_works_without_uncertainty_scores_one() {
+    let e = estimate(&Plan::table2(), zero(), 4, 1);
+    assert_eq!((e.successes, e.samples), (4, 4));
+    assert_eq!(e.ci_high, 1.0);
+}
+
+#[test]
+fn a_plan_that_cannot_insert_scores_zero() {
+    let mut plan = Plan::table2();
+    plan.moves_um.truncate(5); // rotates the peg but never pushes it in
+    let e = estimate(&plan, Uncertainty::default(), 10, 1);
+    assert_eq!(e.successes, 0);
+    assert_eq!((e.success_rate, e.ci_low), (0.0, 0.0));
+    assert!(e.ci_high > 0.0 && e.ci_high < 0.35, "{}", e.ci_high);
+}
+
+#[test]
+fn draws_respect_the_box_and_the_candidate_supports() {
+    let model = Model::default();
+    let candidates = vec![model.support.clone(), SupportDistribution::symmetric(200.0, 250.0, 0.4)];
+    let unc = Uncertainty::default();
+    let d = draws(&model, &unc, &candidates, 64, 9);
+    assert_eq!(d, draws(&model, &unc, &candidates, 64, 9));
+    let mut used = [false; 2];
+    for w in &d {
+        assert!(w.offset[0].abs() <= 26.0 && w.offset[1].abs() <= 74.0 && w.offset[2].abs() <= 3.0);
+        let i = w.support_index.expect("drawn from the set");
+        used[i] = true;
+        assert_eq!(w.model.support.points_um, candidates[i].points_um);
+        assert!((w.model.mu_probe - model.mu_probe).abs() <= 0.1 + 1e-12);
+    }
+    assert_eq!(used, [true, true]);
+    // Without candidates the supports are perturbed and stay valid (COM inside).
+    for w in draws(&model, &unc, &[], 64, 9) {
+        assert!(w.support_index.is_none());
+        w.model.validate().unwrap();
+    }
+}
+
+#[test]
+fn robustness_cli_prints_the_json_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../plans/table2.toml");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
+        .args(["robustness", "--samples", "6", "--seed", "2", "--json", "--out"])
+        .arg(dir.path())
+        .arg(&plan)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for k in ["success_rate", "ci_low", "ci_high"] {
+        assert!(v[k].is_number(), "{k} missing: {v}");
+    }
+    assert_eq!(v["samples"], 6);
+    assert!(dir.path().join("failures_table2.png").exists());
+}
+
+#[test]
+fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds() {
+    use mesopush_host::plan::{RobustSettings, Skeleton, World, design_robust};
+    let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
+    let world = World {
+        model: &model,
+        fixture: &fixture,
+        settings: &settings,
+        uncertainty: Uncertainty::default(),
+        supports: &[],
+    };
+    let rs =
+        RobustSettings { generations: 1, population: 3, elite: 2, samples: 6, target_rate: 1.0 };
+    let start = Plan::table2().peg_start;
+    let run = |seed| {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        design_robust(&world, start, &rs, &mut rng, &mut |_, _| true).unwrap()
+    };
+    let a = run(5);
+    assert_eq!(a, run(5), "seed 5");
+    a.plan.validate().unwrap();
+    assert_eq!(a.evaluations, 4);
+    // Score the starting skeleton on the same worlds (the optimiser draws them first).
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let worlds = draws(&model, &world.uncertainty, &[], rs.samples, rng.random());
+    let s0 = Skeleton::table2_like().to_plan("start", start);
+    let e0 = mesopush_host::plan::montecarlo::evaluate(&s0, &worlds, &fixture, &settings, &|| ())
+        .unwrap();
+    assert!(a.training_rate >= e0.success_rate, "{} < {}", a.training_rate, e0.success_rate);
+}
+
+#[test]
+fn support_set_files_load_as_toml_or_json_and_name_a_bad_candidate() {
+    use mesopush_host::plan::SupportSet;
+    let dir = tempfile::tempdir().unwrap();
+    let model = Model::default();
+    let toml_path = dir.path().join("supports.toml");
+    std::fs::write(
+        &toml_path,
+        "[[support]]\npoints_um = [[-250.0, 440.0], [50.0, -330.0], [250.0, 60.0]]\n\
+         mu_surface = [0.3, 0.3, 0.3]\n[[support]]\n\
+         points_um = [[-200.0, -250.0], [-200.0, 250.0], [400.0, 0.0]]\n\
+         mu_surface = [0.25, 0.3, 0.35]\n",
+    )
+    .unwrap();
+    let set = SupportSet::load(&toml_path, &model).unwrap();
+    assert_eq!(set.support.len(), 2);
+    let json_path = dir.path().join("supports.json");
+    std::fs::write(&json_path, serde_json::to_string(&set.support).unwrap()).unwrap();
+    assert_eq!(SupportSet::load(&json_path, &model).unwrap(), set);
+    let bad = toml_path.with_file_name("bad.toml");
+    let text = std::fs::read_to_string(&toml_path).unwrap().replace("400.0, 0.0", "4000.0, 0.0");
+    std::fs::write(&bad, text).unwrap();
+    let e = SupportSet::load(&bad, &model).unwrap_err().to_string();
+    assert!(e.contains("support 2") && e.contains("bad.toml"), "{e}");
+}
