@@ -3,7 +3,7 @@
 //! them in parallel, and keeps the best if it improves; the step grows on success and shrinks
 //! on failure (a success rule in the spirit of Rechenberg's 1/5 rule). Robust to the jagged
 //! objective that contact-mode switches make, where a simplex method stalls; Nelder–Mead then
-//! polishes the result ([`super::optimize`]).
+//! polishes the result ([`mod@super::optimize`]).
 
 use rand::{Rng, RngExt};
 use rayon::prelude::*;

@@ -2,7 +2,7 @@
 //! and beyond it: a joint optimiser and the set of supports consistent with the data.
 //!
 //! Pipeline ([`identify`]): load trial logs ([`data`]) → sweep μ × random supports
-//! ([`sweep`]) → optionally refine jointly ([`optimize`]) → the consistent set
+//! ([`mod@sweep`]) → optionally refine jointly ([`mod@optimize`]) → the consistent set
 //! ([`consistent`]) → the report ([`report`]: Table I, cross-trial matrix, chosen model).
 //! Only the trial-log format is read, so any convex part at any scale and speed is identified
 //! the same way. [`synth`] writes simulated trials with known truth for tests and demos.

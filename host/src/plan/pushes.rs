@@ -149,7 +149,7 @@ pub struct Outcome {
 }
 
 /// Simulates `moves` from probe position `probe_um` with the peg at `pose`, through the same
-/// [`replay`] the `sim` command and the Monte Carlo use.
+/// [`replay()`] the `sim` command and the Monte Carlo use.
 pub fn simulate(
     sim: &mut Simulator,
     pose: Pose,

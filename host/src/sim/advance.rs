@@ -1,6 +1,6 @@
 //! Moving the probe along one straight segment: free-space jumps while the probe is clear of
 //! the peg, steps of at most `step_um` of probe travel near it. Shared by plan replays
-//! ([`super::replay`]) and recorded-path replays ([`super::path`]) so both see the same
+//! ([`mod@super::replay`]) and recorded-path replays ([`super::path`]) so both see the same
 //! physics.
 
 use super::stepper::{SimState, Simulator, StepInfo};

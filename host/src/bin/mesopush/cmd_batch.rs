@@ -35,10 +35,10 @@ enum BatchCommand {
 struct RunArgs {
     /// Batch TOML (plans, trials, seed, world, camera, policy), e.g. batches/table2.toml.
     batch: PathBuf,
-    /// Output directory (default: the batch file's `out`, else runs/batch-<name>).
+    /// Output directory (default: the batch file's `out`, else runs/batch-NAME).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Run only trials with index ≡ I mod N, into <out>/shard-I-of-N (e.g. 3/16).
+    /// Run only trials with index ≡ I mod N, into OUT/shard-I-of-N (e.g. 3/16).
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
     /// Stop after this many trials in this session (run again to continue).
@@ -53,7 +53,7 @@ struct RunArgs {
 struct ReportArgs {
     /// Batch directory (a run's, a shard's or a merge's).
     dir: PathBuf,
-    /// Where to write the report (default <DIR>/report).
+    /// Where to write the report (default DIR/report).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print the summary as JSON.

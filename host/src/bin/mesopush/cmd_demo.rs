@@ -22,7 +22,7 @@ pub(crate) struct DemoArgs {
     /// World file (default: worlds/default.toml, embedded).
     #[arg(long)]
     world: Option<PathBuf>,
-    /// Trial directory to write (default: a fresh runs/demo-<seed>-<n>).
+    /// Trial directory to write (default: a fresh runs/demo-SEED-N).
     #[arg(long)]
     out: Option<PathBuf>,
     /// The one seed (faults, noise, start perturbation).

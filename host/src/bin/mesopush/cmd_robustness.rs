@@ -53,7 +53,7 @@ pub(crate) struct RobustnessArgs {
     /// Also sweep the uncertainty box's scale over 0.5, 0.75, 1, 1.5, 2 and plot it.
     #[arg(long)]
     sweep: bool,
-    /// Output directory for the figures and the per-trial CSV (`trials_<plan>.csv`).
+    /// Output directory for the figures and the per-trial CSV (`trials_PLAN.csv`).
     #[arg(long, default_value = "runs/robustness")]
     out: PathBuf,
     /// Print a Markdown table row per plan (name, success, interval, pushes, travel).
