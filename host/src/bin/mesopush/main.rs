@@ -1,10 +1,10 @@
 //! `mesopush`: the host command line. Thin over `mesopush_host`: each subcommand module parses
 //! its flags, calls the library and prints.
 
-mod cmd_identify;
+mod cmd_demo;
 mod cmd_diagnose;
 mod cmd_diagnose_confusion;
-mod cmd_demo;
+mod cmd_identify;
 mod cmd_lcp;
 mod cmd_render;
 mod cmd_sim;
