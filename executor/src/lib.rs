@@ -15,6 +15,8 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+#[cfg(feature = "std")]
+pub mod bench;
 pub mod camera;
 pub mod clock;
 pub mod config;

@@ -1,10 +1,14 @@
 //! `mesopush-executor`: the executor between the host's serial line and the motion
 //! controller's, in real time. Plans persist in `--plan-store`; log records are printed
 //! to stdout, one per line, until the trial recorder exists.
+//!
+//! Subcommands: `run` (the default: `mesopush-executor --host-port …` still works) and
+//! `bench` (send-time deviation of the std shell in real time; docs/executor.md).
 
 use anyhow::{Context, Result, bail};
-use clap::Parser;
+use clap::{Args as ClapArgs, Parser, Subcommand};
 use crossbeam_channel::bounded;
+use mesopush_executor::bench::{BenchOptions, run_bench};
 use mesopush_executor::clock::MonotonicClock;
 use mesopush_executor::endpoint::Endpoint;
 use mesopush_executor::shell::port::split_tty;
@@ -24,8 +28,43 @@ const LA: usize = 32;
 const W: usize = 48;
 
 /// Streams flashed plans to the motion controller and stamps camera frames.
+///
+/// Without a subcommand, `run` is assumed: `mesopush-executor --host-port A --ctrl-port B`.
 #[derive(Debug, Parser)]
-#[command(version, about)]
+#[command(version, about, args_conflicts_with_subcommands = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    run: Option<Args>,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run the executor on two serial lines (the default).
+    Run(Args),
+    /// Measure setpoint send times against their schedule in real time: the std shell
+    /// streams a plan to an in-process controller; prints p50/p99/max deviation, µs.
+    Bench(BenchArgs),
+}
+
+#[derive(Debug, ClapArgs)]
+struct BenchArgs {
+    /// Setpoints per second (1..=1000).
+    #[arg(long, default_value_t = 1000)]
+    rate_hz: u32,
+    /// Length of the streamed plan, s.
+    #[arg(long, default_value_t = 10.0)]
+    seconds: f64,
+    /// Run a busy-looping thread beside the shell (load on the other core).
+    #[arg(long)]
+    hog: bool,
+    /// Print the figures as one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, ClapArgs)]
 struct Args {
     /// Serial port of the host line (a device or a pseudo-terminal).
     #[arg(long)]
@@ -68,7 +107,39 @@ fn open(path: &str, baud: u32) -> Result<serialport::TTYPort> {
 }
 
 fn main() -> Result<()> {
-    let args = Args::parse();
+    let cli = Cli::parse();
+    match (cli.command, cli.run) {
+        (Some(Command::Run(args)), _) | (None, Some(args)) => run(args),
+        (Some(Command::Bench(b)), _) => bench(&b),
+        (None, None) => bail!("give --host-port and --ctrl-port, or a subcommand (see --help)"),
+    }
+}
+
+fn bench(b: &BenchArgs) -> Result<()> {
+    let opts = BenchOptions { rate_hz: b.rate_hz, seconds: b.seconds, hog: b.hog };
+    let r = run_bench(opts).context("bench")?;
+    if b.json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        println!(
+            "{} Hz, {} s{}: {} segments; send deviation p50 {} µs, p99 {} µs, max {} µs; \
+             min margin {} µs; shell max late {} µs; trial {}",
+            r.rate_hz,
+            r.seconds,
+            if r.hog { ", hog" } else { "" },
+            r.segments,
+            r.p50_us,
+            r.p99_us,
+            r.max_us,
+            r.min_margin_us,
+            r.shell_max_late_us,
+            r.trial_end
+        );
+    }
+    Ok(())
+}
+
+fn run(args: Args) -> Result<()> {
     if usize::from(args.lookahead_segments) > LA {
         bail!("--lookahead-segments {} exceeds the queue of {LA}", args.lookahead_segments);
     }

@@ -152,7 +152,7 @@ pub fn run_realtime(
         if let Some(frame) = camera.poll(now, &mut world) {
             let cam = CameraFrame {
                 frame_seq: frame.frame_seq,
-                driver_stamp_us: Some(frame.exposure_sim_us),
+                driver_stamp_us: Some(world.driver_stamp_us(frame.exposure_sim_us)),
                 black: frame.black,
             };
             if frame_tx.try_send(cam).is_err() {
@@ -210,6 +210,7 @@ pub fn run_realtime(
         faults_injected: camera.dropped + camera.black,
         records_lost: lost,
         sim_time_s: clock.now_us() as f64 * 1e-6,
+        camera_latency_us: world.camera_latency_us(),
     };
     finish(out_dir, recorded, world.truth(), world.fixture(), done)
 }

@@ -351,11 +351,17 @@ pub fn encode_png(img: &GrayImage) -> Result<Vec<u8>, Error> {
 }
 
 /// Largest distance between tracked (unflagged) poses and the truth at the same exposure,
-/// µm and rad; `None` without a comparable frame.
-pub fn track_error(tracked: &[Tracked], truth: &[TruthSample]) -> Option<(f64, f64, usize)> {
+/// µm and rad; `None` without a comparable frame. A frame stamped `t` was exposed at
+/// `t − camera_latency_us` (the world's undeclared latency; 0 in a clean world).
+pub fn track_error(
+    tracked: &[Tracked],
+    truth: &[TruthSample],
+    camera_latency_us: i64,
+) -> Option<(f64, f64, usize)> {
     let mut worst: Option<(f64, f64, usize)> = None;
     for t in tracked.iter().filter(|t| !t.flagged) {
-        let Ok(i) = truth.binary_search_by_key(&t.t_exposure_us, |s| s.t_us) else { continue };
+        let exposed = t.t_exposure_us as i64 - camera_latency_us;
+        let Ok(i) = truth.binary_search_by_key(&exposed, |s| s.t_us as i64) else { continue };
         let s = truth[i].peg;
         let d = Vec2::new(t.row.x_um - s.x_um, t.row.y_um - s.y_um).norm();
         let a = wrap_angle(t.row.theta_rad - s.theta_rad).abs();

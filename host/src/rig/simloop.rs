@@ -143,7 +143,8 @@ impl SimLoop {
         if let Some(frame) = self.camera.poll(now, &mut self.world) {
             let cam = CameraFrame {
                 frame_seq: frame.frame_seq,
-                driver_stamp_us: Some(frame.exposure_sim_us),
+                // Late by the world's camera latency, if it has one.
+                driver_stamp_us: Some(self.world.driver_stamp_us(frame.exposure_sim_us)),
                 black: frame.black,
             };
             self.exec.on_frame(now, cam, &mut log).map_err(full)?;

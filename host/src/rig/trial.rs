@@ -150,7 +150,8 @@ pub(crate) fn prepare(spec: &TrialSpec, out_dir: &Path) -> Result<Prepared, Erro
     let render = RenderSettings {
         width_px: ws.camera.size_px[0],
         height_px: ws.camera.size_px[1],
-        calibration: cal,
+        // The true optics (differ from `cal` by the world's scale error, if any).
+        calibration: spec.world.render_calibration()?,
         ..RenderSettings::default()
     };
     let camera = CameraTiming {
@@ -165,6 +166,7 @@ pub(crate) fn prepare(spec: &TrialSpec, out_dir: &Path) -> Result<Prepared, Erro
         render,
         camera_start_us: camera.start_us,
         camera_period_us: camera.period_us,
+        effects: ws.effects.clone(),
     };
     let noise =
         rand_chacha::ChaCha8Rng::seed_from_u64(rng.fork(12 + ws.camera.noise_stream).next_u64());
@@ -275,8 +277,15 @@ fn run_simulated(
         rec.join().map_err(|_| Error::invalid("recorder", "the recorder panicked"))??;
     result?;
     let segments_expected = prep.segments_expected;
-    let done =
-        Finished { end, applied, segments_expected, faults_injected, records_lost: 0, sim_time_s };
+    let done = Finished {
+        end,
+        applied,
+        segments_expected,
+        faults_injected,
+        records_lost: 0,
+        sim_time_s,
+        camera_latency_us: world.camera_latency_us(),
+    };
     finish(out_dir, recorded, world.truth(), world.fixture(), done)
 }
 
@@ -288,6 +297,8 @@ pub(crate) struct Finished {
     pub faults_injected: u64,
     pub records_lost: u64,
     pub sim_time_s: f64,
+    /// The world's camera latency, µs: a frame stamped `t` shows the truth at `t − latency`.
+    pub camera_latency_us: i64,
 }
 
 /// Writes truth.csv, the verdict and the final trial.json; builds the report.
@@ -309,7 +320,8 @@ pub(crate) fn finish(
         (Some(SessionEnd::Refused(r)), _) => (TrialState::Aborted, Some(r.clone())),
         _ => (TrialState::Incomplete, Some("the trial did not end in time".to_string())),
     };
-    let (err_um, err_rad, compared) = track_error(&rec.tracked, truth).unwrap_or((0.0, 0.0, 0));
+    let (err_um, err_rad, compared) =
+        track_error(&rec.tracked, truth, done.camera_latency_us).unwrap_or((0.0, 0.0, 0));
     let tracked_poses: Vec<Pose> = rec
         .tracked
         .iter()

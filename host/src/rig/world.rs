@@ -10,8 +10,17 @@
 //! scene at its exposure, not at its delivery. Between exposures the physics advances in
 //! chords of the simulator's step length (the stage path is piecewise straight, so nothing
 //! is lost). Snapshots are the ground truth (`truth()`), never shown to the host's tracker.
+//!
+//! Undeclared kinematic effects (the world file's `[effects]`): stage backlash sits between
+//! the stage (what the controller reports) and the probe tip that touches the peg (a
+//! stateful [`Backlash`] fed every stage position, chords included); camera latency makes
+//! the driver's stamp late ([`RigWorld::driver_stamp_us`]: stamp = exposure + latency). The
+//! scale error lives in the renderer's calibration (`WorldFile::render_calibration`), the
+//! physical effects in the world's model. The probe speed the speed-friction effect needs is
+//! the stage's speed over each physics chord.
 
 use crate::Error;
+use crate::effects::{Backlash, Effects, stamp_with_latency_us};
 use crate::geom::{ConvexPolygon, Pose, Vec2};
 use crate::sim::advance::{SegmentEnd, advance};
 use crate::sim::{Fixture, SimSettings, SimState, Simulator};
@@ -27,7 +36,7 @@ pub struct TruthSample {
     pub t_us: u64,
     /// The peg's true pose.
     pub peg: Pose,
-    /// The probe tip's true position (stage), fixture frame µm.
+    /// The probe tip's true position (after backlash), fixture frame µm.
     pub probe_um: Vec2,
 }
 
@@ -55,6 +64,9 @@ pub struct WorldSetup {
     pub camera_start_us: u64,
     /// Frame period, µs.
     pub camera_period_us: u64,
+    /// The world's effects; here only backlash and camera latency are used (the renderer's
+    /// calibration carries the scale error, the model the physical effects).
+    pub effects: Effects,
 }
 
 /// The host's world for the firmware simulator.
@@ -71,6 +83,10 @@ pub struct RigWorld {
     period_us: u64,
     truth: Vec<TruthSample>,
     jams: u64,
+    backlash: Backlash,
+    latency_us: f64,
+    /// Time and stage position of the last physics advance (for the probe speed).
+    last_advance: Option<(u64, Vec2)>,
 }
 
 /// Step budget per physics advance (a bounded loop).
@@ -100,6 +116,9 @@ impl RigWorld {
             period_us: setup.camera_period_us.max(1),
             truth: Vec::new(),
             jams: 0,
+            backlash: Backlash::new(setup.effects.backlash_um),
+            latency_us: setup.effects.camera_latency_us,
+            last_advance: None,
         })
     }
 
@@ -131,9 +150,35 @@ impl RigWorld {
         self.renderer.render_averaged(&scene, 16, &mut self.rng).image
     }
 
+    /// The camera driver's stamp of a frame exposed at `exposure_us`: late by the world's
+    /// camera latency (never before time 0).
+    pub fn driver_stamp_us(&self, exposure_us: u64) -> u64 {
+        stamp_with_latency_us(exposure_us as i64, self.latency_us).max(0) as u64
+    }
+
+    /// The world's camera latency, µs (rounded; 0 when none).
+    pub fn camera_latency_us(&self) -> i64 {
+        self.latency_us.round() as i64
+    }
+
     /// Stage nm → fixture µm.
     pub fn stage_to_fixture(&self, probe_nm: (i32, i32)) -> Vec2 {
         Vec2::new(f64::from(probe_nm.0) / 1000.0, f64::from(probe_nm.1) / 1000.0) - self.offset_um
+    }
+
+    /// Moves the stage to `stage_um` at `t_us`: the tip follows through the backlash and
+    /// the physics advances to it.
+    fn move_stage_to(&mut self, t_us: u64, stage_um: Vec2) -> Vec2 {
+        let tip = self.backlash.update(stage_um);
+        if let Some((t0, p0)) = self.last_advance
+            && t_us > t0
+        {
+            let speed = (stage_um - p0).norm() / ((t_us - t0) as f64 * 1e-6);
+            self.sim.set_probe_speed_um_s(speed);
+        }
+        self.last_advance = Some((t_us, stage_um));
+        self.move_probe_to(tip);
+        tip
     }
 
     fn move_probe_to(&mut self, target_um: Vec2) {
@@ -165,12 +210,14 @@ impl World for RigWorld {
                 1.0
             };
             let pe = p0 + (target - p0) * f;
-            self.move_probe_to(pe);
-            self.truth.push(TruthSample { t_us: te, peg: self.st.peg, probe_um: pe });
+            let tip = self.move_stage_to(te, pe);
+            self.truth.push(TruthSample { t_us: te, peg: self.st.peg, probe_um: tip });
             self.next_exposure_us += self.period_us;
         }
-        if (target - self.st.probe_um).norm() >= self.sim.settings().step_um {
-            self.move_probe_to(target);
+        // The backlash sees every stage position (a reversal inside a chord counts).
+        let tip = self.backlash.update(target);
+        if (tip - self.st.probe_um).norm() >= self.sim.settings().step_um {
+            self.move_stage_to(sim_time_us, target);
         }
         self.last = Some((sim_time_us, target));
         let p = self.st.peg;

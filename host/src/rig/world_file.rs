@@ -1,11 +1,13 @@
 //! The world file (`worlds/*.toml`): everything the firmware simulator's physical world is
 //! made of — its own physical model (which may differ from the host's nominal one), the peg's
 //! start and a seeded start perturbation, the stage's registration to the fixture frame, the
-//! camera (period, readout, the true optics and the calibration the host is told), and the
-//! faults to inject. Documented in `docs/hil.md`. The file's text is kept verbatim: the trial
+//! camera (period, readout, the true optics and the calibration the host is told), the
+//! faults to inject, and the undeclared effects (`[effects]`, [`Effects`]) the host's model
+//! does not know about. Documented in `docs/hil.md`. The file's text is kept verbatim: the trial
 //! log stores it in `trial.json` (`world`), where identification never reads it.
 
 use crate::Error;
+use crate::effects::Effects;
 use crate::geom::Vec2;
 use crate::sim::Model;
 use crate::sim::plan::PegStart;
@@ -209,6 +211,12 @@ pub struct WorldSpec {
     /// Faults to inject.
     #[serde(default)]
     pub faults: FaultSpec,
+    /// Undeclared effects (default: none). The one place a world declares them: the
+    /// physical ones (compliance, adhesion, friction patch, speed friction) are copied into
+    /// the world's model; backlash, camera latency and scale error act in the world
+    /// ([`super::world::RigWorld`]) and the renderer. Never passed to the host.
+    #[serde(default)]
+    pub effects: Effects,
 }
 
 /// A world file: its parsed contents, its text verbatim and where it came from.
@@ -241,6 +249,7 @@ impl WorldFile {
             }
             (None, None) => Model::default(),
         };
+        let model = with_physical_effects(model, &spec.effects)?;
         model.validate()?;
         spec.faults.to_config()?;
         spec.camera.calibration()?;
@@ -257,6 +266,23 @@ impl WorldFile {
             }
         }
         Ok(Self { spec, model, text: text.to_string(), path: path.map(Path::to_path_buf) })
+    }
+
+    /// The calibration the renderer really images with: the host's one when the world has
+    /// no scale error; else the one that makes the host's measurement of a fixture point
+    /// `p` equal `o + (p − o)(1 + err)` (`o` = `effects.scale_origin_um`, the convention of
+    /// [`crate::effects::apply_scale_error`]): true µm/px = told / (1 + err), origin moved
+    /// by `−o·err / told`.
+    pub fn render_calibration(&self) -> Result<Calibration, Error> {
+        let cal = self.spec.camera.calibration()?;
+        let [ex, ey] = self.spec.effects.scale_error;
+        let [ox, oy] = self.spec.effects.scale_origin_um;
+        let (sx, sy) = (cal.sx_um_per_px, cal.sy_um_per_px);
+        Calibration::new(
+            sx / (1.0 + ex),
+            sy / (1.0 + ey),
+            Vec2::new(cal.origin_px.x - ox * ex / sx, cal.origin_px.y - oy * ey / sy),
+        )
     }
 
     /// Loads a world file.
@@ -280,6 +306,35 @@ impl WorldFile {
     }
 }
 
+/// The world's model with the physical part of `effects` (compliance, adhesion, friction
+/// patch, speed friction) as its `effects`: the world file's `[effects]` table is the one
+/// source, so a model that brings effects of its own is refused, as is support drift (a
+/// single trial has no place in a batch).
+fn with_physical_effects(mut model: Model, effects: &Effects) -> Result<Model, Error> {
+    effects.validate()?;
+    if !model.effects.is_none() {
+        return Err(Error::invalid(
+            "world model",
+            "the model has an [effects] table; declare a world's effects in the world file's \
+             [effects] table",
+        ));
+    }
+    if effects.support_drift.is_some() {
+        return Err(Error::invalid(
+            "world effects",
+            "support_drift acts over a batch; a world runs one trial (not supported here)",
+        ));
+    }
+    model.effects = Effects {
+        probe_compliance_um_per_weight: effects.probe_compliance_um_per_weight,
+        adhesion: effects.adhesion,
+        friction_patch: effects.friction_patch,
+        speed_friction: effects.speed_friction,
+        ..Effects::default()
+    };
+    Ok(model)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -297,5 +352,50 @@ mod tests {
         assert!(e.contains("period"), "{e}");
         let e = WorldFile::from_toml("[faults]\nlink_drop = 2.0\n", None).unwrap_err();
         assert!(e.to_string().contains("link_drop"), "{e}");
+    }
+
+    #[test]
+    fn physical_effects_reach_the_model_and_scale_error_the_renderer() {
+        let text = "[effects]\nbacklash_um = [10.0, 10.0]\nscale_error = [0.02, -0.01]\n\
+                    scale_origin_um = [100.0, 50.0]\n\
+                    [effects.adhesion]\npull_off_weight = 0.3\n";
+        let w = WorldFile::from_toml(text, None).unwrap();
+        assert_eq!(w.model.effects.adhesion.map(|a| a.pull_off_weight), Some(0.3));
+        assert_eq!(w.model.effects.backlash_um, [0.0, 0.0], "kinematic effects stay in the world");
+        let (told, real) = (w.spec.camera.calibration().unwrap(), w.render_calibration().unwrap());
+        let p = Vec2::new(1100.0, 2050.0);
+        let measured = told.px_to_um(&real.um_to_px(&p));
+        let want = crate::effects::apply_scale_error(p, [0.02, -0.01], [100.0, 50.0]);
+        assert!((measured - want).norm() < 1e-9, "{measured:?} vs {want:?}");
+        let clean = WorldFile::default_world();
+        assert_eq!(clean.render_calibration().unwrap(), clean.spec.camera.calibration().unwrap());
+    }
+
+    #[test]
+    fn effects_outside_the_world_table_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut m = Model::default();
+        m.effects.backlash_um = [1.0, 1.0];
+        m.save(&dir.path().join("m.toml")).unwrap();
+        let world = dir.path().join("w.toml");
+        let e = WorldFile::from_toml("[model]\npath = \"m.toml\"\n", Some(&world)).unwrap_err();
+        assert!(e.to_string().contains("[effects]"), "{e}");
+        m.effects = Effects::default();
+        m.save(&dir.path().join("m.toml")).unwrap();
+        WorldFile::from_toml("[model]\npath = \"m.toml\"\n", Some(&world)).unwrap();
+        let e = WorldFile::from_toml("[effects.support_drift]\nmu_surface_per_trial = 0.1\n", None)
+            .unwrap_err();
+        assert!(e.to_string().contains("support_drift"), "{e}");
+        let e = WorldFile::from_toml("[effects]\nbacklash_um = [-1.0, 0.0]\n", None).unwrap_err();
+        assert!(e.to_string().contains("backlash_um"), "{e}");
+    }
+
+    #[test]
+    fn the_example_worlds_parse_and_carry_their_effect() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../worlds");
+        for name in ["latency", "backlash", "scale", "adhesion", "patch"] {
+            let w = WorldFile::load(&dir.join(format!("{name}.toml"))).unwrap();
+            assert!(!w.spec.effects.is_none(), "{name}.toml declares no effect");
+        }
     }
 }

@@ -1,0 +1,196 @@
+//! Real-time timing bench of the std shell (`mesopush-executor bench`): the executor's own
+//! shell loop ([`crate::shell::Shell::run`], the allocation-free core, a monotonic clock)
+//! streams a plan to an in-process controller ([`ctrl`]) over in-memory lines while a host
+//! ([`host`]) flashes, arms and starts it. The controller stamps each move's arrival.
+//!
+//! The schedule: with `L` look-ahead segments of period `T`, segment `k` may go out once
+//! segment `k − L` is done, which the controller reports the moment it finishes, at
+//! `start_k − (L − 1)·T` (never earlier than `start_k − L·T`; the first `L` are due when the
+//! first move went out, at the trial's start). The *deviation* of a send is
+//! its arrival minus that time: the executor's wake-up, decode and send latency plus the
+//! report's way back. The *margin* is how long before its start a move arrived (an underrun
+//! when it goes below the executor's `underrun_margin_us`). `--hog` adds one busy-looping
+//! thread (not pinned; on a 2-core machine it takes the other core or shares ours).
+
+use std::prelude::rust_2024::*;
+pub mod ctrl;
+pub mod host;
+
+use crate::clock::{Clock, MonotonicClock};
+use crate::endpoint::Endpoint;
+use crate::shell::port::Chunk;
+use crate::shell::{ByteRead, ByteWrite, Shell, ShellStats};
+use crate::{Executor, ExecutorConfig, MemStore};
+use crossbeam_channel::{Receiver, Sender, bounded};
+use mesopush_protocol::LinkConfig;
+use mesopush_protocol::host::{ExecToHost, TrialEventKind};
+use std::io;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+/// Plan memory of the bench executor (steps × 12 bytes).
+const CAP: usize = 12 * 1024;
+/// Look-ahead queue.
+const LA: usize = 32;
+
+/// What to run.
+#[derive(Debug, Clone, Copy)]
+pub struct BenchOptions {
+    /// Setpoint rate, Hz (1..=1000).
+    pub rate_hz: u32,
+    /// Length of the streamed plan, s.
+    pub seconds: f64,
+    /// Run a busy-looping thread beside the shell.
+    pub hog: bool,
+}
+
+/// The figures.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BenchReport {
+    /// Setpoint rate, Hz.
+    pub rate_hz: u32,
+    /// Plan length, s.
+    pub seconds: f64,
+    /// Whether a busy thread ran.
+    pub hog: bool,
+    /// Moves received.
+    pub segments: u64,
+    /// Send deviation from schedule, µs: median, 99th percentile, maximum.
+    pub p50_us: u64,
+    /// 99th percentile.
+    pub p99_us: u64,
+    /// Maximum.
+    pub max_us: u64,
+    /// Smallest time a move arrived before its start, µs (negative: after it).
+    pub min_margin_us: i64,
+    /// Largest lateness of a shell wake-up past the core's deadline, µs.
+    pub shell_max_late_us: u64,
+    /// How the trial ended: `done`, or the executor's fault (e.g. a stream underrun).
+    pub trial_end: String,
+}
+
+struct ChanRead(Receiver<Chunk>);
+struct ChanWrite(Sender<Chunk>);
+
+impl ByteRead for ChanRead {
+    fn read_bytes(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match self.0.recv_timeout(Duration::from_millis(10)) {
+            Ok(c) => {
+                let n = c.bytes().len().min(buf.len());
+                buf[..n].copy_from_slice(&c.bytes()[..n]);
+                Ok(n)
+            }
+            Err(crossbeam_channel::RecvTimeoutError::Timeout) => Ok(0),
+            Err(_) => Err(io::Error::new(io::ErrorKind::BrokenPipe, "line closed")),
+        }
+    }
+}
+
+impl ByteWrite for ChanWrite {
+    fn write_bytes(&mut self, bytes: &[u8]) -> io::Result<()> {
+        for piece in bytes.chunks(crate::shell::port::CHUNK_BYTES) {
+            self.0
+                .send(Chunk::new(piece))
+                .map_err(|_| io::Error::new(io::ErrorKind::BrokenPipe, "line closed"))?;
+        }
+        Ok(())
+    }
+}
+
+/// Runs the bench in real time (takes `seconds` plus about a second).
+pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
+    if !((1..=1000).contains(&opts.rate_hz) && opts.seconds > 0.0 && opts.seconds <= 3600.0) {
+        return Err(io::Error::other("rate must be 1..=1000 Hz and seconds in (0, 3600]"));
+    }
+    let config = ExecutorConfig { setpoint_rate_hz: opts.rate_hz, ..ExecutorConfig::DEFAULT };
+    let core = Executor::<_, CAP, LA>::new(config, MemStore::<CAP>::new())
+        .map_err(|e| io::Error::other(format!("executor config: {e:?}")))?;
+    let mut endpoint = Endpoint::<_, CAP, LA, 48>::new(core, LinkConfig::DEFAULT, 1);
+    let clock = Arc::new(MonotonicClock::new());
+    let stop = Arc::new(AtomicBool::new(false));
+    let [(h_in_tx, h_in_rx), (h_out_tx, h_out_rx), (c_in_tx, c_in_rx), (c_out_tx, c_out_rx)] =
+        [(); 4].map(|()| bounded::<Chunk>(4096));
+    let steps = host::bench_plan(opts.seconds);
+    let expected = (opts.seconds * f64::from(opts.rate_hz)) as usize;
+    let ctrl = ctrl::BenchCtrl::new((0, 0), expected);
+    let (c2, s2) = (clock.clone(), stop.clone());
+    let ctrl_thread = std::thread::spawn(move || ctrl.serve(c2, c_out_rx, c_in_tx, s2));
+    let hog = opts.hog.then(|| {
+        let s = stop.clone();
+        std::thread::spawn(move || {
+            let mut n = 0u64;
+            while !s.load(Ordering::Relaxed) {
+                n = std::hint::black_box(n.wrapping_add(1));
+            }
+        })
+    });
+    let (stop_tx, stop_rx) = bounded(1);
+    let (log_tx, log_rx) = bounded(1 << 16);
+    let give_up = clock.now_us() + ((opts.seconds + 30.0) * 1e6) as u64;
+    let c3 = clock.clone();
+    let host_thread = std::thread::spawn(move || {
+        let r = host::drive(c3, &steps, h_out_rx, h_in_tx, give_up);
+        let _ = stop_tx.send(());
+        r
+    });
+    let drain = std::thread::spawn(move || log_rx.iter().count());
+    let mut stats = ShellStats::default();
+    let (host_line, ctrl_line) =
+        ((ChanRead(h_in_rx), ChanWrite(h_out_tx)), (ChanRead(c_in_rx), ChanWrite(c_out_tx)));
+    Shell::run(&mut endpoint, &*clock, host_line, ctrl_line, None, log_tx, stop_rx, &mut stats);
+    stop.store(true, Ordering::Relaxed);
+    let end = host_thread.join().map_err(|_| io::Error::other("host thread panicked"))?;
+    let ctrl = ctrl_thread.join().map_err(|_| io::Error::other("controller thread panicked"))?;
+    if let Some(h) = hog {
+        let _ = h.join();
+    }
+    let _ = drain.join();
+    let end = end.map_err(|e| {
+        let last = ctrl.arrivals.last().map(|a| a.segment_id);
+        io::Error::other(format!("{e} ({} moves received, last {last:?})", ctrl.arrivals.len()))
+    })?;
+    let mut r = report(opts, &config, &ctrl.arrivals, stats.max_late_us)?;
+    r.trial_end = match end {
+        ExecToHost::Trial(t) if t.kind == TrialEventKind::Done => "done".into(),
+        ExecToHost::Trial(t) => format!("{:?}", t.kind),
+        other => format!("{other:?}"),
+    };
+    Ok(r)
+}
+
+fn report(
+    opts: BenchOptions,
+    config: &ExecutorConfig,
+    arrivals: &[ctrl::Arrival],
+    shell_max_late_us: u64,
+) -> io::Result<BenchReport> {
+    let t = config.setpoint_period_us();
+    let l = u64::from(config.lookahead_segments);
+    let mut dev: Vec<u64> = Vec::with_capacity(arrivals.len());
+    let mut min_margin_us = i64::MAX;
+    // The first look-ahead's worth goes out at once when the trial starts.
+    let streaming_from_us = arrivals.first().map_or(0, |a| a.arrival_us);
+    for a in arrivals {
+        let due = a.start_us.saturating_sub(l.saturating_sub(1) * t).max(streaming_from_us);
+        dev.push(a.arrival_us.saturating_sub(due));
+        min_margin_us = min_margin_us.min(a.start_us as i64 - a.arrival_us as i64);
+    }
+    if dev.is_empty() {
+        return Err(io::Error::other("no move reached the controller"));
+    }
+    dev.sort_unstable();
+    let q = |p: f64| dev[((dev.len() - 1) as f64 * p).round() as usize];
+    Ok(BenchReport {
+        rate_hz: opts.rate_hz,
+        seconds: opts.seconds,
+        hog: opts.hog,
+        segments: dev.len() as u64,
+        p50_us: q(0.5),
+        p99_us: q(0.99),
+        max_us: q(1.0),
+        min_margin_us,
+        shell_max_late_us,
+        trial_end: String::new(),
+    })
+}
