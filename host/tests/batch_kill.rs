@@ -14,7 +14,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 const SEED: u64 = 0x6b11_2024;
-const TRIALS: u64 = 30;
+const TRIALS: u64 = 240;
 const KILLS: usize = 22;
 
 fn write_batch(dir: &Path) -> PathBuf {
