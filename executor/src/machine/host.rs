@@ -87,6 +87,9 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
         }
     }
 
+    // Never inlined: the committed plan (CAP bytes) is a stack temporary here; inlined, it
+    // made every `handle` call reserve and probe ~100 KB of stack, not only commits.
+    #[inline(never)]
     fn flash_commit<const N: usize>(&mut self, plan_id: u32, out: &mut Outputs<N>) {
         match self.state {
             ExecState::Armed | ExecState::Running => return self.wrong_state(out),

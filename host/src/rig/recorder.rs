@@ -42,6 +42,9 @@ pub enum RecMsg {
     },
     /// Something outside the executor happened (injected fault, line failure).
     Event(u64, String, String),
+    /// Several messages in order (simulated time hands them over in batches: one channel
+    /// operation, one wake-up of the recorder, per batch instead of per record).
+    Batch(Vec<RecMsg>),
 }
 
 /// How the commanded path is rebuilt.
@@ -187,6 +190,7 @@ impl Recorder {
                 self.on_frame(&stamped, arrival_us, image.as_ref())
             }
             RecMsg::Event(t, kind, detail) => self.event(t, &kind, detail),
+            RecMsg::Batch(msgs) => msgs.into_iter().try_for_each(|m| self.handle(m)),
         }
     }
 

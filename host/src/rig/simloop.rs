@@ -51,7 +51,12 @@ pub struct SimLoop {
     logs: Vec<LogEvent>,
     scratch: Vec<u8>,
     node_events_seen: usize,
+    /// Records not yet handed to the recorder (see [`SimLoop::flush`]).
+    pending: Vec<RecMsg>,
 }
+
+/// Records handed to the recorder in one batch at most (also flushed at every frame).
+const BATCH_RECORDS: usize = 512;
 
 /// Camera timing.
 #[derive(Debug, Clone, Copy)]
@@ -109,13 +114,25 @@ impl SimLoop {
             logs: Vec::with_capacity(64),
             scratch: Vec::with_capacity(FRAME_BUF_LEN),
             node_events_seen: 0,
+            pending: Vec::with_capacity(BATCH_RECORDS),
         })
     }
 
-    fn send(&self, msg: RecMsg) -> Result<(), Error> {
-        // Simulated time: wait for the recorder (deterministic; time is not real here).
+    fn send(&mut self, msg: RecMsg) -> Result<(), Error> {
+        let frame = matches!(msg, RecMsg::Frame { .. });
+        self.pending.push(msg);
+        if frame || self.pending.len() >= BATCH_RECORDS { self.flush() } else { Ok(()) }
+    }
+
+    /// Hands the pending records to the recorder in one message. Simulated time waits for
+    /// the recorder (deterministic; time is not real here); order is kept.
+    pub fn flush(&mut self) -> Result<(), Error> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let batch = std::mem::replace(&mut self.pending, Vec::with_capacity(BATCH_RECORDS));
         self.tx
-            .send(msg)
+            .send(RecMsg::Batch(batch))
             .map_err(|_| Error::invalid("recorder", "the recorder thread stopped early"))
     }
 
@@ -212,10 +229,12 @@ impl SimLoop {
         applied_segments(&self.node.events)
     }
 
-    /// Ends the loop (closing the recorder's channel) and hands back the world.
-    pub fn into_world(self) -> RigWorld {
+    /// Ends the loop (handing over the pending records, then closing the recorder's
+    /// channel) and hands back the world.
+    pub fn into_world(mut self) -> Result<RigWorld, Error> {
+        let flushed = self.flush();
         let Self { world, .. } = self;
-        world
+        flushed.map(|()| world)
     }
 
     /// Faults the world injected so far (line faults, stage faults, camera drops and black

@@ -66,6 +66,59 @@ pub(crate) fn blur(plane: &Plane, kernel: &[f32]) -> Plane {
     out
 }
 
+/// Half-open pixel rectangle `[x0, x1) × [y0, y1)`.
+pub(crate) type Region = (usize, usize, usize, usize);
+
+/// The bounding box of the pixels where `a` and `b` differ (`None` when equal).
+pub(crate) fn changed_region(a: &Plane, b: &Plane) -> Option<Region> {
+    debug_assert_eq!((a.width, a.height), (b.width, b.height));
+    let w = a.width;
+    let (mut x0, mut x1, mut y0, mut y1) = (usize::MAX, 0, usize::MAX, 0);
+    for (j, (ra, rb)) in a.data.chunks_exact(w).zip(b.data.chunks_exact(w)).enumerate() {
+        let Some(first) = ra.iter().zip(rb).position(|(p, q)| p != q) else { continue };
+        let last = w - 1 - ra.iter().zip(rb).rev().position(|(p, q)| p != q).unwrap_or(0);
+        (x0, x1, y0, y1) = (x0.min(first), x1.max(last + 1), y0.min(j), y1.max(j + 1));
+    }
+    (x0 < x1).then_some((x0, x1, y0, y1))
+}
+
+/// Re-blurs the part of `out` (= `blur(old)`) that changes when `old` becomes `plane`, which
+/// differs from `old` only inside `changed`: the pixels within the kernel radius of it. Each
+/// pixel is computed with the very operations, in the same order, as [`blur`], so the result
+/// is bit-identical to `blur(plane, kernel)` at a fraction of the cost when `changed` is small.
+pub(crate) fn reblur_region(plane: &Plane, kernel: &[f32], changed: Region, out: &mut Plane) {
+    let (w, h) = (plane.width, plane.height);
+    debug_assert_eq!((out.width, out.height), (w, h));
+    let r = kernel.len() / 2;
+    let (x0, x1) = (changed.0.saturating_sub(r), (changed.1 + r).min(w));
+    let (y0, y1) = (changed.2.saturating_sub(r), (changed.3 + r).min(h));
+    // Horizontal pass on the rows the vertical pass reads, columns x0..x1 only.
+    let (t0, t1) = (y0.saturating_sub(r), (y1 + r).min(h));
+    let cols = x1 - x0;
+    let mut tmp = vec![0.0f32; (t1 - t0) * cols];
+    for y in t0..t1 {
+        let row = &plane.data[y * w..(y + 1) * w];
+        for (c, o) in tmp[(y - t0) * cols..(y - t0 + 1) * cols].iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for (k, kv) in kernel.iter().enumerate() {
+                acc += kv * row[(x0 + c + k).saturating_sub(r).min(w - 1)];
+            }
+            *o = acc;
+        }
+    }
+    for j in y0..y1 {
+        let dst = &mut out.data[j * w + x0..j * w + x1];
+        dst.fill(0.0);
+        for (k, kv) in kernel.iter().enumerate() {
+            let y = (j + k).saturating_sub(r).min(h - 1);
+            let src = &tmp[(y - t0) * cols..(y - t0 + 1) * cols];
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d += kv * s;
+            }
+        }
+    }
+}
+
 /// A standard normal deviate from one 64-bit draw: the sum of four 16-bit uniforms, rescaled
 /// (Irwin–Hall; tails end at ±3.46σ, plenty for sensor noise and cheap enough for 30 Hz).
 pub(crate) fn normal(rng: &mut impl Rng) -> f32 {
@@ -109,6 +162,34 @@ mod tests {
         let b = blur(&p, &k);
         assert!((b.data.iter().sum::<f32>() - 100.0).abs() < 1e-3);
         assert!(b.data[16 * 32 + 16] < 20.0);
+    }
+
+    #[test]
+    fn reblurring_the_changed_region_is_bit_identical_to_a_full_blur() {
+        let k = gaussian_kernel(1.3);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let base = Plane {
+            width: 40,
+            height: 30,
+            data: (0..1200).map(|_| normal(&mut rng).abs() * 50.0).collect(),
+        };
+        let blurred = blur(&base, &k);
+        // Changes in the middle, at a corner (clamped edges) and nowhere.
+        for (xs, ys) in [(10..17, 8..12), (0..3, 26..30), (5..5, 5..5)] {
+            let mut p = base.clone();
+            for y in ys.clone() {
+                for x in xs.clone() {
+                    p.data[y * 40 + x] *= 0.3;
+                }
+            }
+            let mut out = blurred.clone();
+            if let Some(region) = changed_region(&base, &p) {
+                assert_eq!(region, (xs.start, xs.end, ys.start, ys.end));
+                reblur_region(&p, &k, region, &mut out);
+            }
+            let full = blur(&p, &k);
+            assert!(out.data.iter().zip(&full.data).all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
     }
 
     #[test]

@@ -11,7 +11,9 @@ use crate::Error;
 use crate::geom::{ConvexPolygon, Pose, Vec2};
 use crate::vision::calib::Calibration;
 use crate::vision::needle::{NeedleSettings, fill_needle};
-use crate::vision::optics::{blur, expose, gaussian_kernel, illumination};
+use crate::vision::optics::{
+    blur, changed_region, expose, gaussian_kernel, illumination, reblur_region,
+};
 use crate::vision::raster::{Plane, Roughness, fill_polygon};
 use crate::vision::scene::Scene;
 
@@ -142,6 +144,10 @@ pub struct Renderer {
     base: Plane,
     /// Plate brightness per pixel, DN (illumination × plate level).
     light: Plane,
+    /// The walls alone, lit (`base × light`), and that blurred: frames re-blur only where
+    /// the peg and the needle change the picture.
+    lit_static: Plane,
+    blurred_static: Plane,
     kernel: Vec<f32>,
     rough: Option<(ConvexPolygon, Roughness)>,
 }
@@ -170,6 +176,8 @@ impl Renderer {
             settings,
             walls: Vec::new(),
             base: Plane::filled(w, h, 1.0),
+            lit_static: light.clone(),
+            blurred_static: light.clone(),
             light,
             kernel,
             rough: None,
@@ -205,6 +213,12 @@ impl Renderer {
             );
         }
         self.walls = walls.to_vec();
+        let mut lit = self.base.clone();
+        for (v, l) in lit.data.iter_mut().zip(&self.light.data) {
+            *v *= l;
+        }
+        self.blurred_static = blur(&lit, &self.kernel);
+        self.lit_static = lit;
     }
 
     /// Renders `scene` with sensor noise drawn from `rng`.
@@ -243,10 +257,18 @@ impl Renderer {
         if let Some(tip) = &scene.probe_tip {
             fill_needle(&mut t, &s.calibration, &s.needle, tip, s.needle_transmission as f32);
         }
-        for (v, l) in t.data.iter_mut().zip(&self.light.data) {
-            *v *= l;
+        let mut radiance = self.blurred_static.clone();
+        if let Some(region) = changed_region(&t, &self.base) {
+            let mut lit = self.lit_static.clone();
+            let (x0, x1, y0, y1) = region;
+            for j in y0..y1 {
+                let row = j * t.width;
+                for i in row + x0..row + x1 {
+                    lit.data[i] = t.data[i] * self.light.data[i];
+                }
+            }
+            reblur_region(&lit, &self.kernel, region, &mut radiance);
         }
-        let radiance = blur(&t, &self.kernel);
         let n = f64::from(frames.max(1));
         let pixels = expose(&radiance, s.read_noise_dn / n.sqrt(), s.shot_noise_gain / n, rng);
         let image = GrayImage::from_raw(s.width_px, s.height_px, pixels)
