@@ -27,6 +27,7 @@ fn spec(trials: u64, seed: u64, camera: bool) -> BatchSpec {
             frame_drop: 0.3,
             frame_black: 0.3,
             max_frames: 2,
+            film_period_us: None,
         },
         policy: Policy { timeout_s: 30.0, grace_s: 0.5, max_attempts: 2, ..Default::default() },
     }

@@ -8,6 +8,7 @@
 pub mod check;
 pub mod engine;
 pub mod estimate;
+pub mod factory;
 pub mod figures;
 pub mod fsx;
 pub mod journal;
@@ -21,6 +22,7 @@ pub mod stats;
 pub mod supervise;
 
 pub use engine::{BatchConfig, Manifest, Progress, Session, run};
+pub use factory::runner_factory;
 pub use rig_runner::RigRunner;
 pub use runner::{Cancel, RunnerFactory, TrialJob, TrialResult, TrialRunner, Verdict};
 pub use sim_runner::SimRunner;

@@ -9,6 +9,7 @@
 //! calibration as the world's camera; the batch's `[camera]` faults) gives the start pose
 //! the plan is chosen and shifted for (see [`super::estimate`]). The peg start comes from
 //! the batch (the world file's own `perturb` is ignored so the start is perturbed once).
+//! The batch's `camera.film_period_us`, when set, replaces the world camera's frame period.
 //! Cancellation: the loop's progress callback checks the cancel flag every 0.1 s of
 //! simulated time and unwinds out of the loop (without the panic hook) when raised.
 
@@ -45,6 +46,9 @@ impl RigRunner {
         theta_hint_rad: f64,
     ) -> Result<Self, Error> {
         world.spec.peg.perturb = None;
+        if let Some(period_us) = camera.film_period_us {
+            world.spec.camera.period_us = period_us;
+        }
         let camera = if camera.estimate_start {
             let ws = &world.spec.camera;
             let settings = RenderSettings {

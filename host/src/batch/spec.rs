@@ -98,6 +98,12 @@ pub struct CameraSpec {
     /// Probability a frame is black (default 0).
     #[serde(default)]
     pub frame_black: f64,
+    /// `rig` runner only: film each trial at this frame period, µs, instead of the world
+    /// file's (absent: the world's, 33 333 µs = 30 Hz). Rendering and tracking every frame is
+    /// most of a full-loop trial's cost, so a batch at scale films slower (e.g. 500 000 µs,
+    /// 2 Hz); the verdict still comes from the last tracked frame after the peg came to rest.
+    #[serde(default)]
+    pub film_period_us: Option<u64>,
 }
 
 fn yes() -> bool {
@@ -115,6 +121,7 @@ impl Default for CameraSpec {
             max_frames: default_frames(),
             frame_drop: 0.0,
             frame_black: 0.0,
+            film_period_us: None,
         }
     }
 }
@@ -196,6 +203,11 @@ impl BatchSpec {
         }
         if c.max_frames == 0 || c.max_frames > 1000 {
             return Err(bad("camera.max_frames must be in 1..=1000"));
+        }
+        if c.film_period_us.is_some_and(|p| !(1_000..=10_000_000).contains(&p)) {
+            return Err(bad(
+                "camera.film_period_us must be in 1000..=10000000 µs (1 kHz to 0.1 Hz)",
+            ));
         }
         let p = &self.policy;
         let budget = |v: f64| v.is_finite() && v > 0.0 && v <= 86_400.0;

@@ -56,9 +56,9 @@ pub struct TrialReport {
     pub state: TrialState,
     /// Why (faults, refusals).
     pub reason: Option<String>,
-    /// Whether the last tracked pose lies in the goal.
+    /// Whether the final pose lies in the goal (absent: no unflagged frame after the end).
     pub inserted: Option<bool>,
-    /// Last tracked (unflagged) pose.
+    /// The last unflagged tracked pose exposed after the trial's end (the peg at rest).
     pub final_pose: Option<Pose>,
     /// Frames recorded.
     pub frames: u64,
@@ -227,6 +227,13 @@ pub fn run_trial(
 /// Time the loop keeps running after the trial's end (frames of the peg at rest), µs.
 pub(crate) const TAIL_US: u64 = 300_000;
 
+/// The tail for a camera: [`TAIL_US`], or long enough for two more frames to be exposed and
+/// delivered after the end (a slow camera's last frame must show the peg at rest: the
+/// verdict is judged on it).
+pub(crate) fn tail_us(camera: &CameraTiming) -> u64 {
+    TAIL_US.max(2 * camera.period_us + camera.readout_us)
+}
+
 fn run_simulated(
     spec: &TrialSpec,
     out_dir: &Path,
@@ -241,6 +248,7 @@ fn run_simulated(
     let rec = std::thread::spawn(move || recorder.run(rx));
     let total_s = prep.plan_duration_s + 2.0;
     let max_us = ((prep.plan_duration_s + 30.0) * 1e6) as u64;
+    let tail = tail_us(&prep.camera);
     let mut lp = SimLoop::new(
         &prep.rng,
         prep.config,
@@ -264,7 +272,7 @@ fn run_simulated(
         if lp.host.end().is_some() && ended_at.is_none() {
             ended_at = Some(lp.now_us);
         }
-        if ended_at.is_some_and(|t| lp.now_us >= t + TAIL_US) {
+        if ended_at.is_some_and(|t| lp.now_us >= t + tail) {
             break;
         }
     }
@@ -272,10 +280,11 @@ fn run_simulated(
     let faults_injected = lp.faults_injected();
     let applied = lp.applied();
     let sim_time_s = lp.now_us as f64 * 1e-6;
-    let world = lp.into_world(); // closes the recorder's channel
+    let world = lp.into_world(); // flushes, then closes the recorder's channel
     let recorded =
         rec.join().map_err(|_| Error::invalid("recorder", "the recorder panicked"))??;
     result?;
+    let world = world?;
     let segments_expected = prep.segments_expected;
     let done = Finished {
         end,
@@ -310,7 +319,16 @@ pub(crate) fn finish(
     done: Finished,
 ) -> Result<TrialReport, Error> {
     write_truth(out_dir, truth, rec.t0_us.unwrap_or(0))?;
-    let last: Option<&Tracked> = rec.tracked.iter().rev().find(|t| !t.flagged);
+    // Judged on the peg at rest: the last unflagged frame exposed after the trial ended.
+    // Earlier frames show it still moving; when every frame after the end is flagged (the
+    // needle over the peg, say) there is nothing to judge on, and the report says so
+    // (`inserted` absent) rather than guessing from an older frame.
+    let end_us = rec.end.map(|(t, _)| t);
+    let last: Option<&Tracked> = rec
+        .tracked
+        .iter()
+        .rev()
+        .find(|t| !t.flagged && end_us.is_none_or(|e| t.t_exposure_us >= e));
     let final_pose = last.map(|t| Pose::new(t.row.x_um, t.row.y_um, t.row.theta_rad));
     let inserted = final_pose.map(|p| fixture.inserted(&Vec2::new(p.x_um, p.y_um)));
     let (state, reason) = match (&done.end, rec.end) {

@@ -296,12 +296,14 @@ impl WorldFile {
         Self::from_toml(DEFAULT_WORLD_TOML, None).expect("the embedded default world is valid")
     }
 
-    /// The description stored in `trial.json`: the text verbatim plus the parsed form.
+    /// The description stored in `trial.json`: the text verbatim plus the parsed form (and
+    /// the camera period in force, which a batch may set apart from the text).
     pub fn description(&self) -> serde_json::Value {
         serde_json::json!({
             "file": self.path.as_ref().map(|p| p.display().to_string()),
             "toml": self.text,
             "resolved_model": self.model,
+            "camera_period_us": self.spec.camera.period_us,
         })
     }
 }

@@ -6,11 +6,8 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_host::batch::stats::{Loaded, Summary, summarize};
 use mesopush_host::batch::{
-    BatchConfig, BatchSpec, Progress, RigRunner, RunnerFactory, Session, Shard, SimRunner,
-    TrialRunner, merge, report,
+    BatchConfig, BatchSpec, Progress, Session, Shard, merge, report, runner_factory,
 };
-use mesopush_host::rig::WorldFile;
-use mesopush_host::sim::{Fixture, Model};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -82,35 +79,6 @@ pub(crate) fn run(args: &BatchArgs) -> Result<()> {
     }
 }
 
-fn factory(spec: &BatchSpec, base: &Path, theta_hint_rad: f64) -> Result<RunnerFactory> {
-    if spec.runner == "rig" {
-        let world = match &spec.world.file {
-            Some(p) => WorldFile::load(&base.join(p))?,
-            None => WorldFile::default_world(),
-        };
-        let camera = spec.camera.clone();
-        return Ok(Box::new(move || {
-            let r = RigRunner::new(world.clone(), &camera, theta_hint_rad)?;
-            Ok(Box::new(r) as Box<dyn TrialRunner>)
-        }));
-    }
-    let model = match &spec.world.model {
-        Some(p) => Model::load(&base.join(p))?,
-        None => Model::default(),
-    };
-    let fixture = match &spec.world.fixture {
-        Some(p) => Fixture::load(&base.join(p))?,
-        None => Fixture::paper(),
-    };
-    let world = json!({"runner": "sim", "world": spec.world, "camera": spec.camera});
-    let camera = spec.camera.clone();
-    Ok(Box::new(move || {
-        let r =
-            SimRunner::new(model.clone(), fixture.clone(), &camera, theta_hint_rad, world.clone())?;
-        Ok(Box::new(r) as Box<dyn TrialRunner>)
-    }))
-}
-
 fn bar(json: bool) -> ProgressBar {
     let pb = if json { ProgressBar::hidden() } else { ProgressBar::new(0) };
     let style = ProgressStyle::with_template(
@@ -132,7 +100,7 @@ fn run_batch(a: &RunArgs) -> Result<()> {
     if shard != Shard::ALL {
         out = out.join(shard.dir_name());
     }
-    let factory = factory(&spec, base, plans[0].peg_start_pose().theta_rad)?;
+    let factory = runner_factory(&spec, base, plans[0].peg_start_pose().theta_rad)?;
     let cfg = BatchConfig { spec, plans, out: out.clone(), shard, max_trials: a.max_trials };
     let pb = bar(a.json);
     let mut on_progress = |p: &Progress| {
