@@ -2,7 +2,8 @@
 //! serves the controller on a pseudo-terminal and the camera on a Unix socket in real time,
 //! `mesopush-executor run` opens both, records, and listens for a host on a Unix socket;
 //! `mesopush flash` and `mesopush run` drive it. A 2 s push; generous timeouts, no timing
-//! assertions.
+//! assertions; the clock-sync round-trip limit raised to 20 ms (on a loaded 2-core machine
+//! replies through another process miss the default 5 ms, docs/hil.md).
 //!
 //! `mesopush-executor` is another package's binary: it is looked for beside this test's
 //! target directory (`cargo test --workspace` builds it; alone, `cargo build -p
@@ -129,7 +130,7 @@ fn fwsim_executor_flash_and_run_as_separate_processes() {
     let _executor = Killed(
         Command::new(executor_bin())
             .args(["run", "--host-port", &host, "--ctrl-port", &b[0], "--camera", &b[1]])
-            .args(["--fixture-origin-um", &b[4], "--record-dir"])
+            .args(["--fixture-origin-um", &b[4], "--sync-max-rtt-us", "20000", "--record-dir"])
             .arg(&rec)
             .arg("--plan-store")
             .arg(d.join("plan.bin"))

@@ -112,6 +112,10 @@ struct Args {
     /// the fixture frame; `mesopush-fwsim` prints its world's).
     #[arg(long, value_name = "X,Y", default_value = "1000,1000")]
     fixture_origin_um: String,
+    /// Longest clock-sync round trip accepted, µs (raise it on a heavily loaded machine,
+    /// where replies through another process come back late).
+    #[arg(long, default_value_t = ExecutorConfig::DEFAULT.sync_max_rtt_us)]
+    sync_max_rtt_us: u64,
     /// Frames recorded after a trial's end, ms.
     #[arg(long, default_value_t = 500)]
     record_tail_ms: u64,
@@ -239,6 +243,7 @@ fn run(args: Args) -> Result<()> {
     let config = ExecutorConfig {
         setpoint_rate_hz: args.setpoint_rate_hz,
         lookahead_segments: args.lookahead_segments,
+        sync_max_rtt_us: args.sync_max_rtt_us,
         ..ExecutorConfig::DEFAULT
     };
     let store = FileStore::new(&args.plan_store);
