@@ -45,18 +45,46 @@ impl Clock for ManualClock {
     }
 }
 
-/// The host's monotonic clock, µs since this value was created.
+/// `CLOCK_MONOTONIC` now, µs: the time domain every process on one machine shares (the
+/// clock V4L2 stamps camera buffers with, and the one the camera channel's
+/// `capture_mono_us` is in; see `mesopush_protocol::camera`).
+#[cfg(feature = "std")]
+pub fn monotonic_now_us() -> u64 {
+    let t = rustix::time::clock_gettime(rustix::time::ClockId::Monotonic);
+    let us = i128::from(t.tv_sec) * 1_000_000 + i128::from(t.tv_nsec) / 1_000;
+    u64::try_from(us).unwrap_or(0)
+}
+
+/// The machine's monotonic clock (`CLOCK_MONOTONIC`), µs since this value was created.
+///
+/// The epoch is kept as a `CLOCK_MONOTONIC` reading, so times from other processes on the
+/// same machine (camera driver stamps) convert exactly: `exec_time_us = mono_us − epoch`.
 #[cfg(feature = "std")]
 #[derive(Debug)]
 pub struct MonotonicClock {
-    epoch: std::time::Instant,
+    epoch_mono_us: u64,
 }
 
 #[cfg(feature = "std")]
 impl MonotonicClock {
     /// A clock reading 0 now.
     pub fn new() -> Self {
-        Self { epoch: std::time::Instant::now() }
+        Self { epoch_mono_us: monotonic_now_us() }
+    }
+
+    /// The epoch, µs of `CLOCK_MONOTONIC`.
+    pub fn epoch_mono_us(&self) -> u64 {
+        self.epoch_mono_us
+    }
+
+    /// A `CLOCK_MONOTONIC` time in this clock (`None` before the epoch).
+    pub fn from_mono_us(&self, mono_us: u64) -> Option<u64> {
+        mono_us.checked_sub(self.epoch_mono_us)
+    }
+
+    /// This clock's time as `CLOCK_MONOTONIC` µs.
+    pub fn to_mono_us(&self, exec_time_us: u64) -> u64 {
+        self.epoch_mono_us.saturating_add(exec_time_us)
     }
 }
 
@@ -70,7 +98,7 @@ impl Default for MonotonicClock {
 #[cfg(feature = "std")]
 impl Clock for MonotonicClock {
     fn now_us(&self) -> u64 {
-        u64::try_from(self.epoch.elapsed().as_micros()).unwrap_or(u64::MAX)
+        monotonic_now_us().saturating_sub(self.epoch_mono_us)
     }
 }
 
@@ -86,5 +114,16 @@ mod tests {
         assert!(!clock.set(14));
         assert!(clock.set(20));
         assert_eq!(clock.now_us(), 20);
+    }
+
+    #[cfg(feature = "std")]
+    #[test]
+    fn monotonic_clock_converts_machine_time_both_ways() {
+        let clock = MonotonicClock::new();
+        let mono = monotonic_now_us();
+        let t = clock.from_mono_us(mono).expect("after the epoch");
+        assert_eq!(clock.to_mono_us(t), mono);
+        assert!(clock.now_us() >= t, "never behind a reading taken earlier");
+        assert_eq!(clock.from_mono_us(clock.epoch_mono_us() - 1), None);
     }
 }

@@ -23,6 +23,7 @@
 #![no_std]
 #![deny(missing_docs)]
 
+pub mod camera;
 pub mod ctrl;
 pub mod error;
 pub mod flash;

@@ -1,23 +1,30 @@
-//! `mesopush-executor`: the executor between the host's serial line and the motion
-//! controller's, in real time. Plans persist in `--plan-store`; log records are printed
-//! to stdout, one per line, until the trial recorder exists.
+//! `mesopush-executor`: the executor between the host's line (serial, or a Unix socket) and
+//! the motion controller's serial line, in real time. Plans persist in `--plan-store`;
+//! camera frames come from `--camera unix:PATH`; trials are recorded under `--record-dir`
+//! (frames.csv, frames/*.png, events.csv, recording.json); other log records are printed to
+//! stdout, one per line.
 //!
 //! Subcommands: `run` (the default: `mesopush-executor --host-port …` still works) and
 //! `bench` (send-time deviation of the std shell in real time; docs/executor.md).
 
 use anyhow::{Context, Result, bail};
 use clap::{Args as ClapArgs, Parser, Subcommand};
-use crossbeam_channel::bounded;
+use crossbeam_channel::{Receiver, bounded};
 use mesopush_executor::bench::{BenchOptions, run_bench};
 use mesopush_executor::clock::MonotonicClock;
 use mesopush_executor::endpoint::Endpoint;
-use mesopush_executor::shell::port::split_tty;
+use mesopush_executor::shell::camera_source::{CameraCounters, CameraEnd, spawn_camera_reader};
+use mesopush_executor::shell::port::{ByteRead, ByteWrite, split_tty};
+use mesopush_executor::shell::record::{ExecRecorder, RecordConfig};
 use mesopush_executor::shell::runner::ShellEnd;
+use mesopush_executor::shell::unix_line::{LineAddr, listen};
 use mesopush_executor::shell::{Shell, ShellStats};
 use mesopush_executor::store::file::FileStore;
-use mesopush_executor::{Executor, ExecutorConfig};
+use mesopush_executor::{CameraFrame, Executor, ExecutorConfig, LogEvent, PlanStore};
 use mesopush_protocol::LinkConfig;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 /// Plan memory: 4096 steps.
@@ -26,6 +33,10 @@ const CAP: usize = 12 * 4096;
 const LA: usize = 32;
 /// Link window.
 const W: usize = 48;
+/// Camera frames queued for the loop.
+const FRAME_QUEUE: usize = 16;
+/// Images queued for the recorder (a 928 × 480 frame is 445 KB).
+const IMAGE_QUEUE: usize = 32;
 
 /// Streams flashed plans to the motion controller and stamps camera frames.
 ///
@@ -66,7 +77,8 @@ struct BenchArgs {
 
 #[derive(Debug, ClapArgs)]
 struct Args {
-    /// Serial port of the host line (a device or a pseudo-terminal).
+    /// The host line: a serial port (a device or a pseudo-terminal), or `unix:PATH` to
+    /// listen on a Unix socket that one host at a time connects to (`mesopush flash/run`).
     #[arg(long)]
     host_port: String,
     /// Serial port of the motion controller line.
@@ -87,6 +99,26 @@ struct Args {
     /// Stop after this many seconds (default: run until a line closes).
     #[arg(long)]
     duration_s: Option<f64>,
+    /// Camera channel: `unix:PATH`, a camera serving frames on a Unix socket
+    /// (`mesopush-fwsim` prints it). Frames are stamped with the driver's CLOCK_MONOTONIC
+    /// stamp converted to the executor's clock (docs/hil.md).
+    #[arg(long, value_name = "unix:PATH")]
+    camera: Option<String>,
+    /// Record each trial's frames.csv, frames/*.png, events.csv and recording.json into
+    /// DIR/trial-<plan id>-<start µs>/ (docs/trial-log.md); `mesopush run` completes it.
+    #[arg(long, value_name = "DIR")]
+    record_dir: Option<PathBuf>,
+    /// The fixture frame's origin in stage coordinates, µm (recorded probe positions are in
+    /// the fixture frame; `mesopush-fwsim` prints its world's).
+    #[arg(long, value_name = "X,Y", default_value = "1000,1000")]
+    fixture_origin_um: String,
+    /// Longest clock-sync round trip accepted, µs (raise it on a heavily loaded machine,
+    /// where replies through another process come back late).
+    #[arg(long, default_value_t = ExecutorConfig::DEFAULT.sync_max_rtt_us)]
+    sync_max_rtt_us: u64,
+    /// Frames recorded after a trial's end, ms.
+    #[arg(long, default_value_t = 500)]
+    record_tail_ms: u64,
 }
 
 /// Increments the boot counter kept beside the plan store; link sessions must differ
@@ -139,6 +171,71 @@ fn bench(b: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
+fn parse_pair(flag: &str, text: &str) -> Result<(f64, f64)> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("{flag} wants two numbers X,Y, got {text:?}"))?;
+    match v[..] {
+        [x, y] if x.is_finite() && y.is_finite() => Ok((x, y)),
+        _ => bail!("{flag} wants two finite numbers X,Y, got {text:?}"),
+    }
+}
+
+/// What runs beside the shell: the recorder and, with `--camera`, the camera reader.
+struct Sidecar {
+    frames: Option<Receiver<CameraFrame>>,
+    camera: Option<std::thread::JoinHandle<CameraEnd>>,
+    counters: Arc<CameraCounters>,
+    stop: Arc<AtomicBool>,
+    recorder: std::thread::JoinHandle<std::io::Result<()>>,
+}
+
+fn sidecar(
+    args: &Args,
+    clock: &Arc<MonotonicClock>,
+    log_rx: Receiver<LogEvent>,
+) -> Result<Sidecar> {
+    let record = match &args.record_dir {
+        Some(root) => {
+            std::fs::create_dir_all(root)
+                .with_context(|| format!("creating the record directory {}", root.display()))?;
+            Some(RecordConfig {
+                root: root.clone(),
+                fixture_origin_um: parse_pair("--fixture-origin-um", &args.fixture_origin_um)?,
+                tail_us: args.record_tail_ms.saturating_mul(1000),
+            })
+        }
+        None => None,
+    };
+    let (img_tx, img_rx) = bounded(IMAGE_QUEUE);
+    let counters = Arc::new(CameraCounters::default());
+    let stop = Arc::new(AtomicBool::new(false));
+    let (frames, camera) = match &args.camera {
+        Some(addr) => {
+            let Some(path) = addr.strip_prefix("unix:") else {
+                bail!("--camera wants unix:PATH, got {addr:?}");
+            };
+            let (tx, rx) = bounded(FRAME_QUEUE);
+            let rec_tx = record.is_some().then_some(img_tx);
+            let t = spawn_camera_reader(
+                Path::new(path),
+                clock.clone(),
+                tx,
+                rec_tx,
+                counters.clone(),
+                stop.clone(),
+            )?;
+            (Some(rx), Some(t))
+        }
+        None => (None, None),
+    };
+    let rec = ExecRecorder::new(record, clock.clone());
+    let recorder = std::thread::spawn(move || rec.run(log_rx, img_rx));
+    Ok(Sidecar { frames, camera, counters, stop, recorder })
+}
+
 fn run(args: Args) -> Result<()> {
     if usize::from(args.lookahead_segments) > LA {
         bail!("--lookahead-segments {} exceeds the queue of {LA}", args.lookahead_segments);
@@ -146,6 +243,7 @@ fn run(args: Args) -> Result<()> {
     let config = ExecutorConfig {
         setpoint_rate_hz: args.setpoint_rate_hz,
         lookahead_segments: args.lookahead_segments,
+        sync_max_rtt_us: args.sync_max_rtt_us,
         ..ExecutorConfig::DEFAULT
     };
     let store = FileStore::new(&args.plan_store);
@@ -155,14 +253,10 @@ fn run(args: Args) -> Result<()> {
     }
     let session = next_session(&args.plan_store)?;
     let mut endpoint = Endpoint::<_, CAP, LA, W>::new(core, LinkConfig::DEFAULT, session);
-    let host = split_tty(open(&args.host_port, args.baud)?).context("host port")?;
     let ctrl = split_tty(open(&args.ctrl_port, args.baud)?).context("controller port")?;
+    let clock = Arc::new(MonotonicClock::new());
     let (log_tx, log_rx) = bounded(4096);
-    let printer = std::thread::spawn(move || {
-        for record in log_rx {
-            println!("{record:?}");
-        }
-    });
+    let side = sidecar(&args, &clock, log_rx)?;
     let (stop_tx, stop_rx) = bounded(1);
     if let Some(s) = args.duration_s {
         std::thread::spawn(move || {
@@ -171,13 +265,55 @@ fn run(args: Args) -> Result<()> {
         });
     }
     let mut stats = ShellStats::default();
-    let clock = MonotonicClock::new();
-    let end = Shell::run(&mut endpoint, &clock, host, ctrl, None, log_tx, stop_rx, &mut stats);
-    let _ = printer.join();
-    eprintln!("executor stopped: {end:?}; {stats:?}; {:?}", endpoint.stats());
+    let lines = Lines { ctrl, frames: side.frames.clone(), log_tx, stop_rx };
+    let end = match LineAddr::parse(&args.host_port) {
+        LineAddr::Unix(path) => {
+            let host = listen(&path).context("host line")?;
+            eprintln!("host line: unix:{}", path.display());
+            serve(&mut endpoint, &clock, host, lines, &mut stats)
+        }
+        LineAddr::Serial(p) => {
+            let host = split_tty(open(&p, args.baud)?).context("host port")?;
+            serve(&mut endpoint, &clock, host, lines, &mut stats)
+        }
+    };
+    side.stop.store(true, Ordering::Relaxed);
+    let camera_end = side.camera.map(|t| t.join());
+    let recorded = side.recorder.join();
+    let c = &side.counters;
+    eprintln!(
+        "executor stopped: {end:?}; {stats:?}; {:?}; camera {camera_end:?}: {} frames, {} not \
+         stamped (loop queue full), {} images not recorded (recorder queue full)",
+        endpoint.stats(),
+        c.received.load(Ordering::Relaxed),
+        c.loop_dropped.load(Ordering::Relaxed),
+        c.recorder_dropped.load(Ordering::Relaxed),
+    );
+    match recorded {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return Err(e).context("recorder"),
+        Err(_) => bail!("the recorder thread panicked"),
+    }
     match end {
         ShellEnd::Stopped => Ok(()),
         ShellEnd::HostLine(e) => Err(e).context("host line"),
         ShellEnd::CtrlLine(e) => Err(e).context("controller line"),
     }
+}
+
+struct Lines {
+    ctrl: (serialport::TTYPort, serialport::TTYPort),
+    frames: Option<Receiver<CameraFrame>>,
+    log_tx: crossbeam_channel::Sender<LogEvent>,
+    stop_rx: Receiver<()>,
+}
+
+fn serve<S: PlanStore>(
+    endpoint: &mut Endpoint<S, CAP, LA, W>,
+    clock: &MonotonicClock,
+    host: (impl ByteRead + 'static, impl ByteWrite),
+    l: Lines,
+    stats: &mut ShellStats,
+) -> ShellEnd {
+    Shell::run(endpoint, clock, host, l.ctrl, l.frames, l.log_tx, l.stop_rx, stats)
 }

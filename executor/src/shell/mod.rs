@@ -7,10 +7,18 @@
 //! recorder's channel without ever blocking on it (a full channel is counted, never waited
 //! for). Time comes from a [`crate::clock::Clock`]. Byte links are behind [`port::ByteRead`]
 //! / [`port::ByteWrite`], implemented for serial ports (`serialport::TTYPort`, which also
-//! gives pseudo-terminal pairs) and for in-memory pipes.
+//! gives pseudo-terminal pairs), for in-memory pipes and for a Unix socket host line
+//! ([`unix_line`]). Camera frames come from the camera channel ([`camera_source`]); the
+//! recorder thread ([`record`]) writes the raw frame part of each trial log.
 
+#[cfg(unix)]
+pub mod camera_source;
 pub mod port;
+#[cfg(unix)]
+pub mod record;
 pub mod runner;
+#[cfg(unix)]
+pub mod unix_line;
 
 pub use port::{ByteRead, ByteWrite, Chunk};
 pub use runner::{Shell, ShellStats};

@@ -13,7 +13,12 @@
 //! - [`trial`]: [`run_trial`], [`TrialSpec`], [`TrialReport`]; [`figure`]: tracked vs
 //!   simulated trajectory figure.
 
+pub mod complete;
+pub mod ctrl_serve;
 pub mod figure;
+pub mod fwsim;
+pub mod hil;
+pub mod hostlink;
 pub mod pty;
 pub mod realtime;
 pub mod recorder;

@@ -9,6 +9,7 @@
 //! Line faults of the world file are not injected in real time (the lines are real); stage
 //! faults (stall, limit switch, reboot) and camera drops are.
 
+use super::ctrl_serve::ServedController;
 use super::pty::PtyLine;
 use super::recorder::RecMsg;
 use super::session::{HostSession, SessionGoal};
@@ -23,9 +24,9 @@ use mesopush_executor::shell::port::{ByteRead, ByteWrite, CHUNK_BYTES, Chunk, sp
 use mesopush_executor::shell::{Shell, ShellStats};
 use mesopush_executor::{CameraFrame, Executor, LogEvent, MemStore};
 use mesopush_firmware_sim::camera::SimCamera;
-use mesopush_firmware_sim::{ControllerNode, CtrlConfig, FaultConfig, World};
+use mesopush_firmware_sim::{ControllerNode, CtrlConfig, FaultConfig};
 use mesopush_protocol::{FRAME_BUF_LEN, LinkConfig};
-use std::io::{self, Read, Write};
+use std::io;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
@@ -77,7 +78,7 @@ pub fn run_realtime(
     let clock = Arc::new(MonotonicClock::new());
     let pty = PtyLine::open()?;
     let path = pty.path().to_string();
-    let (mut master, ctrl_port, _slave) = pty.into_parts();
+    let (master, ctrl_port, _slave) = pty.into_parts();
     let ctrl =
         split_tty(ctrl_port).map_err(|e| Error::io(&path, io::Error::other(e.to_string())))?;
     let (to_exec_tx, to_exec_rx) = bounded(1024);
@@ -107,7 +108,7 @@ pub fn run_realtime(
     let (rec_tx, rec_rx) = bounded(256);
     let recorder = prep.recorder;
     let rec = std::thread::spawn(move || recorder.run(rec_rx));
-    let mut node: ControllerNode<Q, EW> = ControllerNode::new(
+    let node: ControllerNode<Q, EW> = ControllerNode::new(
         CtrlConfig::DEFAULT,
         faults,
         LinkConfig::DEFAULT,
@@ -116,13 +117,14 @@ pub fn run_realtime(
         prep.probe_start_nm,
     );
     let c = prep.camera;
-    let mut camera =
-        SimCamera::new(c.period_us, c.readout_us, c.start_us, prep.rng.fork(6), faults);
+    let camera = SimCamera::new(c.period_us, c.readout_us, c.start_us, prep.rng.fork(6), faults);
+    let mut ctrl =
+        ServedController::new(master, node, camera).map_err(|e| Error::io("pty master", e))?;
     let mut world = prep.world;
     let mut host = HostSession::new(&spec.plan, SessionGoal::FlashAndRun, 7_001)?;
     let mut images: Vec<(u32, Option<GrayImage>)> = Vec::new();
     let mut lost = 0u64;
-    let (mut buf, mut out) = ([0u8; 512], [0u8; FRAME_BUF_LEN]);
+    let mut out = [0u8; FRAME_BUF_LEN];
     let total_s = prep.plan_duration_s + 2.0;
     let max_us = ((prep.plan_duration_s + 30.0) * 1e6) as u64;
     let (mut ended_at, mut next_progress) = (None, 0);
@@ -130,26 +132,13 @@ pub fn run_realtime(
         Ok(()) => {}
         Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => *lost += 1,
     };
-    use serialport::SerialPort;
-    master
-        .set_timeout(Duration::from_millis(1))
-        .map_err(|e| Error::io("pty master", io::Error::other(e.to_string())))?;
     let result: Result<(), Error> = loop {
         let now = clock.now_us();
-        let n = match master.read(&mut buf) {
-            Ok(n) => n,
-            Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock) => 0,
+        let frame = match ctrl.step(now, &mut world) {
+            Ok((_, frame)) => frame,
             Err(e) => break Err(Error::io("pty master", e)),
         };
-        node.on_bytes(now, &buf[..n]);
-        node.tick(now);
-        while let Some(f) = node.transmit(now, &mut out) {
-            if let Err(e) = master.write_all(f) {
-                return Err(Error::io("pty master", e));
-            }
-        }
-        world.step(now, node.probe_nm());
-        if let Some(frame) = camera.poll(now, &mut world) {
+        if let Some(frame) = frame {
             let cam = CameraFrame {
                 frame_seq: frame.frame_seq,
                 driver_stamp_us: Some(world.driver_stamp_us(frame.exposure_sim_us)),
@@ -205,9 +194,9 @@ pub fn run_realtime(
     result?;
     let done = Finished {
         end: host.end().cloned(),
-        applied: super::simloop::applied_segments(&node.events),
+        applied: super::simloop::applied_segments(&ctrl.node.events),
         segments_expected: prep.segments_expected,
-        faults_injected: camera.dropped + camera.black,
+        faults_injected: ctrl.camera.dropped + ctrl.camera.black,
         records_lost: lost,
         sim_time_s: clock.now_us() as f64 * 1e-6,
         camera_latency_us: world.camera_latency_us(),

@@ -5,11 +5,13 @@ mod cmd_batch;
 mod cmd_demo;
 mod cmd_diagnose;
 mod cmd_diagnose_confusion;
+mod cmd_flash;
 mod cmd_identify;
 mod cmd_lcp;
 mod cmd_plan;
 mod cmd_render;
 mod cmd_robustness;
+mod cmd_run;
 mod cmd_sim;
 mod cmd_track;
 
@@ -45,6 +47,10 @@ enum Command {
     Diagnose(cmd_diagnose::DiagnoseArgs),
     /// Unattended trial batches: run (resumable, shardable), merge shards, report.
     Batch(cmd_batch::BatchArgs),
+    /// Upload a plan to a running mesopush-executor (hardware-in-the-loop, docs/hil.md).
+    Flash(cmd_flash::FlashArgs),
+    /// Arm, start and record the flashed plan on a running executor; print the verdict.
+    Run(cmd_run::RunArgs),
 }
 
 /// Runs the command; errors are printed as one `error: …` line (with their causes) and exit
@@ -72,5 +78,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Batch(args) => cmd_batch::run(&args),
         Command::Plan(args) => cmd_plan::run(&args),
         Command::Robustness(args) => cmd_robustness::run(&args),
+        Command::Flash(args) => cmd_flash::run(&args),
+        Command::Run(args) => cmd_run::run(&args),
     }
 }
