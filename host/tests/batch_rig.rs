@@ -1,0 +1,121 @@
+//! The CI-sized form of the faulted full-loop batch (`batches/ci-rig-faults.toml`, docs/batch.md):
+//! 200 short trials through the whole loop — executor, firmware simulator over a
+//! pseudo-terminal, camera, recorder, tracker — with link, controller and camera faults
+//! injected, run unattended as two shards side by side (both cores) and merged, as a user
+//! shards a batch over processes. Checks that no record is lost or duplicated and that
+//! every verdict is true: a trial with an injected controller fault is never judged a
+//! success, every faulted trial logs its fault, and every judged trial's verdict agrees with
+//! the truth the tracker never saw.
+
+use mesopush_host::batch::stats::{Loaded, summarize};
+use mesopush_host::batch::{
+    BatchConfig, BatchSpec, Shard, Verdict, merge, report, run, runner_factory,
+};
+use mesopush_host::geom::Vec2;
+use mesopush_host::sim::Fixture;
+use mesopush_host::trial::Trial;
+use std::path::{Path, PathBuf};
+
+fn batch_file() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../batches/ci-rig-faults.toml")
+}
+
+fn run_shards(spec: &BatchSpec, base: &Path, out: &Path) -> Vec<PathBuf> {
+    let plans = spec.load_plans(base).unwrap();
+    let theta = plans[0].peg_start_pose().theta_rad;
+    let dirs: Vec<PathBuf> = (0..2).map(|i| out.join(format!("shard-{i}"))).collect();
+    std::thread::scope(|s| {
+        for (i, dir) in dirs.iter().enumerate() {
+            let cfg = BatchConfig {
+                spec: spec.clone(),
+                plans: plans.clone(),
+                out: dir.clone(),
+                shard: Shard { index: i as u64, count: 2 },
+                max_trials: None,
+            };
+            let factory = runner_factory(spec, base, theta).unwrap();
+            s.spawn(move || run(&cfg, factory, &mut |_| {}).unwrap());
+        }
+    });
+    dirs
+}
+
+/// The truth's last pose inside the channel?
+fn truly_inserted(dir: &Path) -> bool {
+    let truth = std::fs::read_to_string(dir.join("truth.csv")).unwrap();
+    let last = truth.lines().last().unwrap();
+    let v: Vec<f64> = last.split(',').map(|x| x.parse().unwrap()).collect();
+    Fixture::paper().inserted(&Vec2::new(v[1], v[2]))
+}
+
+#[test]
+fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
+    let path = batch_file();
+    let spec = BatchSpec::load(&path).unwrap();
+    let seed = spec.seed;
+    assert_eq!(spec.trials, 200, "the CI-sized batch is 200 trials");
+    let tmp = tempfile::tempdir().unwrap();
+    let shards = run_shards(&spec, path.parent().unwrap(), tmp.path());
+    let merged = tmp.path().join("merged");
+    merge::merge(&shards, &merged).unwrap();
+    let loaded = Loaded::load(&merged).unwrap();
+    let s = summarize(&loaded);
+    println!(
+        "seed {seed}: {} trials, {} inserted, {} missed, {} faulted, {} errors; faults injected {}, detected {}; records lost {}",
+        s.trials,
+        s.succeeded,
+        s.missed,
+        s.faulted,
+        s.errors,
+        s.faults_injected,
+        s.faults_detected,
+        s.records_lost
+    );
+    assert_eq!((s.trials, s.missing, s.duplicates), (200, 0, 0), "seed {seed}");
+    assert_eq!((s.records_lost, s.errors, s.timeouts), (0, 0, 0), "seed {seed}");
+    assert!(s.faults_injected > 1000, "seed {seed}: link faults are injected on every line");
+    assert!(s.faulted >= 5, "seed {seed}: controller faults at these rates fault some trials");
+    let (mut judged, mut unjudged) = (0, 0);
+    for a in loaded.finals().values() {
+        let r = &a.result;
+        let ctx = format!("seed {seed}, {} attempt {}: {r:?}", a.trial_id, a.attempt);
+        assert!(!r.reason.is_empty(), "{ctx}");
+        let dir = merged.join(&a.dir);
+        let t = Trial::load(&dir).unwrap_or_else(|e| panic!("{ctx}: {e}"));
+        // Events are in order; those before `started` carry absolute times (a controller
+        // rebooted while the plan was being flashed is no fault of the trial's).
+        let during = t.events.iter().skip_while(|e| e.kind != "started");
+        let injected_ctrl = during.take_while(|e| e.kind != "fault" && e.kind != "done").any(|e| {
+            matches!(
+                e.kind.as_str(),
+                "injected_stall" | "injected_limit_switch" | "injected_reboot"
+            )
+        });
+        if injected_ctrl {
+            assert_eq!(r.verdict, Verdict::Faulted, "{ctx}: a controller fault was injected");
+        }
+        if r.verdict == Verdict::Faulted {
+            assert!(t.events.iter().any(|e| e.kind == "fault"), "{ctx}: no fault event");
+        }
+        if r.reason.contains("cannot judge") {
+            unjudged += 1;
+        } else if matches!(r.verdict, Verdict::Inserted | Verdict::Missed) {
+            judged += 1;
+            assert_eq!(
+                r.verdict == Verdict::Inserted,
+                truly_inserted(&dir),
+                "{ctx}: false verdict"
+            );
+        }
+    }
+    println!(
+        "seed {seed}: {judged} judged, {unjudged} not judgeable (no clean frame after the end)"
+    );
+    assert!(judged >= 150, "seed {seed}: only {judged} trials ran to a verdict");
+    assert!(s.succeeded as f64 >= 0.8 * judged as f64, "seed {seed}: {} of {judged}", s.succeeded);
+    let w = report::write(&merged, &merged.join("report")).unwrap();
+    let md = std::fs::read_to_string(&w.markdown).unwrap();
+    for needle in ["Wilson 95 %", "success.png", "final_poses.png", "Failure reasons"] {
+        assert!(md.contains(needle), "{needle} missing from the report");
+    }
+}
