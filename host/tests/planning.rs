@@ -80,3 +80,26 @@ fn plan_cli_prints_the_json_summary_and_writes_a_loadable_plan() {
     }
     Plan::load(&out).unwrap();
 }
+
+#[test]
+fn robust_plan_cli_reports_the_fresh_check_and_the_design_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("robust.toml");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
+        .args(["plan", "--robust", "--seed", "3", "--json", "--generations", "1"])
+        .args(["--train-samples", "4", "--validation-samples", "4", "--check-samples", "6"])
+        .args(["--check-seed", "99", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((v["samples"].as_u64(), v["check_seed"].as_u64()), (Some(6), Some(99)), "{v}");
+    for k in
+        ["success_rate", "ci_low", "ci_high", "training_rate", "validation_rate", "planning_ms"]
+    {
+        assert!(v[k].is_number(), "{k} missing: {v}");
+    }
+    assert_eq!(v["generations"], 1, "{v}");
+    Plan::load(&out).unwrap().validate().unwrap();
+}

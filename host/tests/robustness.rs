@@ -123,24 +123,50 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
         uncertainty: Uncertainty::default(),
         supports: &[],
     };
-    let rs =
-        RobustSettings { generations: 1, population: 3, elite: 2, samples: 6, target_rate: 1.0 };
-    let start = Plan::table2().peg_start;
-    let run = |seed| {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        design_robust(&world, start, &rs, &mut rng, &mut |_, _| true).unwrap()
+    let rs = RobustSettings {
+        generations: 1,
+        population: 4,
+        elite: 2,
+        samples: 8,
+        validation_samples: 0,
+        finalists: 1,
+        train_step_um: 5.0,
+        target_rate: 1.0,
     };
-    let a = run(5);
-    assert_eq!(a, run(5), "seed 5");
+    let start = Plan::table2().peg_start;
+    let run = |rs: &RobustSettings, seed| {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        design_robust(&world, start, rs, &mut rng, &mut |_, _| true).unwrap()
+    };
+    let a = run(&rs, 5);
+    assert_eq!(a, run(&rs, 5), "seed 5");
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    assert_eq!(a, pool.install(|| run(&rs, 5)), "seed 5, one thread");
     a.plan.validate().unwrap();
-    assert_eq!(a.evaluations, 4);
-    // Score the starting skeleton on the same worlds (the optimiser draws them first).
+    assert_eq!(a.evaluations, 5);
+    // Start skeleton on all 8 worlds + 4 candidates on the first half + 2 survivors on the
+    // second half + the final sampling mean on all 8; no validation.
+    assert_eq!(a.trials, 8 + 4 * 4 + 2 * 4 + 8, "seed 5");
+    assert_eq!(a.validation_rate, None);
+    // Score the starting skeleton on the same worlds (the optimiser draws them first): the
+    // start is scored too, and without validation the best trained wins, so the result
+    // cannot be worse on these worlds.
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
     let worlds = draws(&model, &world.uncertainty, &[], rs.samples, rng.random());
     let s0 = Skeleton::table2_like().to_plan("start", start);
     let e0 = mesopush_host::plan::montecarlo::evaluate(&s0, &worlds, &fixture, &settings, &|| ())
         .unwrap();
+    let ea =
+        mesopush_host::plan::montecarlo::evaluate(&a.plan, &worlds, &fixture, &settings, &|| ())
+            .unwrap();
+    assert_eq!(ea.success_rate, a.training_rate, "seed 5: the reported training rate");
+    eprintln!("seed 5: start {} → designed {}", e0.success_rate, a.training_rate);
     assert!(a.training_rate >= e0.success_rate, "{} < {}", a.training_rate, e0.success_rate);
+    // With validation the winner is one of the finalists and its validation rate is reported.
+    let v = run(&RobustSettings { validation_samples: 6, finalists: 3, ..rs }, 5);
+    let rate = v.validation_rate.expect("validated");
+    assert!((0.0..=1.0).contains(&rate), "{rate}");
+    assert_eq!(v.trials, a.trials + 3 * 6);
 }
 
 #[test]

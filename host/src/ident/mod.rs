@@ -11,6 +11,7 @@ pub mod consistent;
 pub mod data;
 pub mod es;
 pub mod optimize;
+pub mod polish;
 pub mod report;
 pub mod sample;
 pub mod score;

@@ -1,6 +1,8 @@
 //! Beyond the paper: a joint fit of the probe friction, the three support points and
-//! (optionally) the surface friction, started from the sweep's nominal candidate: a seeded
-//! evolution strategy ([`super::es`]) and then Nelder–Mead restarts to polish. The objective is the total squared residual over all trials;
+//! (optionally) the surface friction, started from the sweep's best candidates: a seeded
+//! evolution strategy ([`super::es`]) finds the basin, Levenberg–Marquardt on the residual
+//! vector ([`super::polish`]) descends to its floor, and Nelder–Mead restarts polish what is
+//! left. The objective is the total squared residual over all trials;
 //! each evaluation simulates the trials in parallel and sums them in trial order, so the
 //! result does not depend on thread count.
 //!
@@ -13,7 +15,7 @@
 
 use super::data::IdentTrial;
 use super::sample::{MIN_WEIGHT, acceptable};
-use super::score::{Candidate, ScoreSettings, score};
+use super::score::{Candidate, ScoreSettings, residuals, score};
 use crate::sim::SupportDistribution;
 use rand::{Rng, RngExt};
 use rayon::prelude::*;
@@ -169,9 +171,21 @@ fn simplex_around(x0: &[f64], scale: &[f64], rng: &mut impl Rng) -> Vec<Vec<f64>
     out
 }
 
+/// All residual components of `c` over `trials`, in trial order (`None` when invalid or any
+/// simulation fails); the sum of their squares is [`total_sse`].
+pub fn all_residuals(trials: &[IdentTrial], c: &Candidate, s: &ScoreSettings) -> Option<Vec<f64>> {
+    let part = trials[0].part.polygon();
+    if !(0.0..=2.0).contains(&c.mu_probe) || !acceptable(&c.support, part, MIN_WEIGHT / 4.0) {
+        return None;
+    }
+    let v: Vec<Option<Vec<f64>>> = trials.par_iter().map(|t| residuals(t, c, s)).collect();
+    Some(v.into_iter().collect::<Option<Vec<_>>>()?.concat())
+}
+
 /// Fits μ and the supports (and the surface friction if asked) to all `trials` from the
 /// `starts` (best first): the evolution strategy ([`super::es`]) from each start with an equal
-/// share of 70 % of the budget, then Nelder–Mead restarts from the best found.
+/// share of 60 % of the budget, Levenberg–Marquardt ([`super::polish`]) from the best found
+/// with up to 25 %, then Nelder–Mead restarts with the rest.
 pub fn optimize(
     trials: &[IdentTrial],
     starts: &[Candidate],
@@ -194,7 +208,7 @@ pub fn optimize(
     let start_sse = objective(&x0);
     let mut scale: Vec<f64> = x0.iter().map(|_| 0.08).collect();
     scale[0] = 0.1;
-    let es_budget = settings.max_evals * 7 / 10 / starts.len().max(1);
+    let es_budget = settings.max_evals * 6 / 10 / starts.len().max(1);
     let (mut x, mut best, mut evals) = (x0, start_sse, 1);
     let mut visited: Vec<(Candidate, f64)> = Vec::new();
     for (i, c) in starts.iter().enumerate() {
@@ -206,6 +220,22 @@ pub fn optimize(
         if fe < best {
             (x, best) = (xe, fe);
         }
+    }
+    let res = |x: &[f64]| {
+        tick();
+        if x.get(7).is_some_and(|m| !(0.01..=2.0).contains(m)) {
+            return None;
+        }
+        all_residuals(trials, &decode(x, l_um, mu_s0), score_settings)
+    };
+    // Steps of 2e-3 (about 2 µm on the peg): above the simulator's µm-level jaggedness.
+    let h = vec![2e-3; x.len()];
+    let lm_budget = (settings.max_evals / 4).min(settings.max_evals.saturating_sub(evals));
+    let (xl, fl, used, seen) = super::polish::levenberg_marquardt(&res, &x, &h, lm_budget);
+    evals += used;
+    visited.extend(seen.into_iter().map(|(x, v)| (decode(&x, l_um, mu_s0), v)));
+    if fl < best {
+        (x, best) = (xl, fl);
     }
     let mut f = |x: &[f64]| {
         let v = objective(x);

@@ -134,3 +134,16 @@ pub fn score(trial: &IdentTrial, c: &Candidate, settings: &ScoreSettings) -> Sco
     let (xy, th) = (xy / n as f64, th / n as f64);
     Score { xy_mse_um2: xy, theta_mse_rad2: th, cost_um2: xy + l * l * th, n_poses: n, jams }
 }
+
+/// The residual components (Δx, Δy, L·Δθ per scored pose, µm) of `c` on `trial`, in pose
+/// order; `None` when the simulation fails. Their sum of squares is [`Score::sse_um2`].
+pub fn residuals(trial: &IdentTrial, c: &Candidate, settings: &ScoreSettings) -> Option<Vec<f64>> {
+    let (samples, _) = simulate(trial, c, settings)?;
+    let l = trial.part.char_length_um();
+    let mut r = Vec::with_capacity(3 * trial.measured.len());
+    for (t, m) in &trial.measured {
+        let p = pose_at(&samples, *t);
+        r.extend([p.x_um - m.x_um, p.y_um - m.y_um, l * (p.theta_rad - m.theta_rad)]);
+    }
+    Some(r)
+}

@@ -1,15 +1,30 @@
 //! Robust plans by design (beyond the paper, which tuned Table II by hand): the cross-entropy
 //! method over the [`Skeleton`]'s parameters, scoring each candidate by its Monte Carlo
-//! success rate on one common set of sampled worlds (common random numbers, so candidates
+//! success count on one common set of sampled worlds (common random numbers, so candidates
 //! are compared on the same draws and the score is deterministic for a seed).
+//!
+//! Three things keep the search honest and cheap:
+//! - **Racing.** Each generation scores every candidate on the first half of the training
+//!   worlds; only the better half (at least the elite) runs on the second half. A candidate
+//!   that fails often early cannot be elite, so its second half is not simulated.
+//! - **Both cores.** Candidates × worlds run as one flat parallel batch (rayon), collected in
+//!   index order: the result does not depend on the thread count.
+//! - **Validation.** Selecting the best of hundreds of candidates on the same worlds is
+//!   optimistic (the winner is partly the luckiest). At the end the best few distinct
+//!   candidates are re-scored on a separate set of validation worlds, and the one with the
+//!   most validation successes is returned.
+//! - **Coarse search, fine choice.** Training replays use a coarser simulator step
+//!   ([`RobustSettings::train_step_um`]); the validation uses the world's own settings, so
+//!   the plan is chosen on the simulator that checks it.
 
-use super::montecarlo::{draws, evaluate};
-use super::sampler::Uncertainty;
+use super::montecarlo::{draws, run_trial};
+use super::sampler::{Draw, Uncertainty};
 use super::skeleton::{BOUNDS, Skeleton};
 use crate::Error;
 use crate::sim::plan::PegStart;
 use crate::sim::{Fixture, Model, Plan, SimSettings, SupportDistribution};
 use rand::RngExt;
+use rayon::prelude::*;
 
 /// Optimiser settings (plain data, documented defaults).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -20,15 +35,38 @@ pub struct RobustSettings {
     pub population: usize,
     /// Best candidates that set the next generation's distribution. Default 4.
     pub elite: usize,
-    /// Sampled worlds each candidate is scored on. Default 64.
+    /// Training worlds each surviving candidate is scored on (the first half decides who
+    /// survives the race). Default 96.
     pub samples: usize,
-    /// Stop early once the best score reaches this rate. Default 1.0 (never early).
+    /// Validation worlds the finalists are re-scored on. Default 200.
+    pub validation_samples: usize,
+    /// Candidates re-scored on the validation worlds: the best trained, the final sampling
+    /// mean, then the next best distinct ones. Without validation the best trained wins.
+    /// Default 4.
+    pub finalists: usize,
+    /// Simulator step of the training replays, µm (at least the world's own step). The
+    /// finalists are validated with the world's settings, so a coarser training step trades
+    /// a little fidelity during the search for twice the candidates, and the final choice is
+    /// made at full fidelity. Default 10 (the world's default is 5).
+    pub train_step_um: f64,
+    /// Stop early once the best training score reaches this rate; 1.0 or more never stops
+    /// early (a perfect training score still leaves room to find a more robust candidate).
+    /// Default 1.0.
     pub target_rate: f64,
 }
 
 impl Default for RobustSettings {
     fn default() -> Self {
-        Self { generations: 12, population: 16, elite: 4, samples: 64, target_rate: 1.0 }
+        Self {
+            generations: 12,
+            population: 16,
+            elite: 4,
+            samples: 96,
+            validation_samples: 200,
+            finalists: 4,
+            train_step_um: 10.0,
+            target_rate: 1.0,
+        }
     }
 }
 
@@ -39,11 +77,16 @@ pub struct RobustResult {
     pub plan: Plan,
     /// Its skeleton parameters.
     pub skeleton: Skeleton,
-    /// Its success rate on the optimisation's worlds (optimistic: it was selected on them;
-    /// re-estimate on fresh draws for an honest figure).
+    /// Its success rate on the training worlds (optimistic: it was selected on them).
     pub training_rate: f64,
-    /// Candidates evaluated.
+    /// Its success rate on the validation worlds (mildly optimistic: the best of
+    /// [`RobustSettings::finalists`]; re-estimate on fresh draws for an honest figure). None
+    /// without validation.
+    pub validation_rate: Option<f64>,
+    /// Candidates sampled (each scored at least on the first half of the training worlds).
     pub evaluations: usize,
+    /// Plan replays simulated in all (training and validation).
+    pub trials: usize,
     /// Generations run.
     pub generations: usize,
 }
@@ -69,8 +112,61 @@ fn gaussian(rng: &mut impl rand::Rng) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
+/// Success counts of every candidate on `worlds`: one flat parallel batch, in order.
+fn successes(
+    cands: &[Skeleton],
+    worlds: &[Draw],
+    world: &World<'_>,
+    start: PegStart,
+) -> Vec<usize> {
+    let plans: Vec<Plan> = cands.iter().map(|s| s.to_plan("", start)).collect();
+    let n = worlds.len();
+    let ok: Vec<bool> = (0..plans.len() * n)
+        .into_par_iter()
+        .map(|k| run_trial(&plans[k / n], &worlds[k % n], world.fixture, world.settings).inserted)
+        .collect();
+    ok.chunks(n.max(1)).map(|c| c.iter().filter(|b| **b).count()).collect()
+}
+
+/// A scored candidate: skeleton and successes on all training worlds.
+type Scored = (Skeleton, usize);
+
+/// One raced generation: returns the candidates that ran on every training world, best first
+/// (stable: ties keep sampling order), and the number of replays simulated.
+fn race(
+    cands: &[Skeleton],
+    worlds: &[Draw],
+    keep: usize,
+    world: &World<'_>,
+    start: PegStart,
+) -> (Vec<Scored>, usize) {
+    let half = worlds.len() / 2;
+    let first = successes(cands, &worlds[..half], world, start);
+    let mut order: Vec<usize> = (0..cands.len()).collect();
+    order.sort_by(|a, b| first[*b].cmp(&first[*a]));
+    order.truncate(keep.min(cands.len()));
+    let survivors: Vec<Skeleton> = order.iter().map(|&i| cands[i]).collect();
+    let second = successes(&survivors, &worlds[half..], world, start);
+    let mut scored: Vec<Scored> =
+        order.iter().zip(&second).map(|(&i, s2)| (cands[i], first[i] + s2)).collect();
+    scored.sort_by_key(|a| std::cmp::Reverse(a.1));
+    let replays = cands.len() * half + survivors.len() * (worlds.len() - half);
+    (scored, replays)
+}
+
+/// Moves the sampling distribution to the elite's mean and (smoothed) spread.
+fn update(mean: &mut [f64], sigma: &mut [f64], elite: &[Scored]) {
+    let n = elite.len() as f64;
+    for (k, (m, s)) in mean.iter_mut().zip(sigma.iter_mut()).enumerate() {
+        let mu = elite.iter().map(|e| e.0.params[k]).sum::<f64>() / n;
+        let var = elite.iter().map(|e| (e.0.params[k] - mu).powi(2)).sum::<f64>() / n;
+        *m = mu;
+        *s = (0.7 * *s + 0.3 * var.sqrt()).max(5.0);
+    }
+}
+
 /// Optimises the skeleton for a peg starting at `start`; `progress(generation, best_rate)`
-/// may return `false` to stop after a generation.
+/// may return `false` to stop after a generation (validation still runs).
 pub fn design_robust(
     world: &World<'_>,
     start: PegStart,
@@ -78,50 +174,97 @@ pub fn design_robust(
     rng: &mut impl rand::Rng,
     progress: &mut dyn FnMut(usize, f64) -> bool,
 ) -> Result<RobustResult, Error> {
-    let worlds =
-        draws(world.model, &world.uncertainty, world.supports, settings.samples, rng.random());
-    let score = |s: &Skeleton| -> Result<f64, Error> {
-        let plan = s.to_plan("", start);
-        Ok(evaluate(&plan, &worlds, world.fixture, world.settings, &|| ())?.success_rate)
+    world.model.validate()?;
+    let coarse = SimSettings {
+        step_um: world.settings.step_um.max(settings.train_step_um),
+        ..world.settings.clone()
     };
-    let mut mean = Skeleton::table2_like().params;
+    let fine = world;
+    let world = &World { settings: &coarse, ..*fine };
+    let n_train = settings.samples.max(2);
+    let worlds = draws(world.model, &world.uncertainty, world.supports, n_train, rng.random());
+    let s0 = Skeleton::table2_like();
+    let mut hall: Vec<Scored> = vec![(s0, successes(&[s0], &worlds, world, start)[0])];
+    let (mut evaluations, mut replays, mut generations) = (1, n_train, 0);
+    let mut mean = s0.params;
     let mut sigma: Vec<f64> = BOUNDS.iter().map(|(lo, hi)| (hi - lo) / 6.0).collect();
-    let mut best = (Skeleton::table2_like(), score(&Skeleton::table2_like())?);
-    let (mut evaluations, mut generations) = (1, 0);
+    let elite_n = settings.elite.max(1);
+    let keep = elite_n.max(settings.population / 2);
     for g in 0..settings.generations {
         generations = g + 1;
-        let mut scored = Vec::with_capacity(settings.population + 1);
-        scored.push(best);
-        for _ in 0..settings.population {
-            let mut p = mean;
-            for (v, s) in p.iter_mut().zip(&sigma) {
-                *v += s * gaussian(rng);
-            }
-            let cand = Skeleton { params: p }.clamped();
-            scored.push((cand, score(&cand)?));
-            evaluations += 1;
-        }
-        // Stable sort: ties keep the earlier (and, for the incumbent, the older) candidate.
-        scored.sort_by(|a, b| b.1.total_cmp(&a.1));
-        best = scored[0];
-        let elite = &scored[..settings.elite.clamp(1, scored.len())];
-        for (k, (m, s)) in mean.iter_mut().zip(sigma.iter_mut()).enumerate() {
-            let n = elite.len() as f64;
-            let mu = elite.iter().map(|e| e.0.params[k]).sum::<f64>() / n;
-            let var = elite.iter().map(|e| (e.0.params[k] - mu).powi(2)).sum::<f64>() / n;
-            *m = mu;
-            *s = (0.7 * *s + 0.3 * var.sqrt()).max(5.0);
-        }
-        if !progress(generations, best.1) || best.1 >= settings.target_rate {
+        let cands: Vec<Skeleton> = (0..settings.population)
+            .map(|_| {
+                let mut p = mean;
+                p.iter_mut().zip(&sigma).for_each(|(v, s)| *v += s * gaussian(rng));
+                Skeleton { params: p }.clamped()
+            })
+            .collect();
+        evaluations += cands.len();
+        let (scored, used) = race(&cands, &worlds, keep, world, start);
+        replays += used;
+        // The incumbent stays in the elite (stable merge: on ties the older one first).
+        let mut pool: Vec<Scored> = vec![hall[0]];
+        pool.extend(scored.iter().copied());
+        pool.sort_by_key(|a| std::cmp::Reverse(a.1));
+        update(&mut mean, &mut sigma, &pool[..elite_n.min(pool.len())]);
+        hall.extend(scored);
+        hall.sort_by_key(|a| std::cmp::Reverse(a.1));
+        let best_rate = hall[0].1 as f64 / n_train as f64;
+        let reached = settings.target_rate < 1.0 && best_rate >= settings.target_rate;
+        if !progress(generations, best_rate) || reached {
             break;
         }
     }
+    // The sampling distribution's mean is a finalist too: the centre of the region the elite
+    // found, less likely than the single best to owe its score to lucky draws.
+    let centre = Skeleton { params: mean }.clamped();
+    let centre_train = successes(&[centre], &worlds, world, start)[0];
+    replays += n_train;
+    // Finalists: the best trained, the centre, then the next best distinct ones.
+    let mut finalists: Vec<Scored> = vec![hall[0], (centre, centre_train)];
+    finalists.dedup_by(|a, b| a.0 == b.0);
+    finalists.truncate(settings.finalists.max(1));
+    for h in &hall {
+        if finalists.len() >= settings.finalists.max(1) {
+            break;
+        }
+        if !finalists.iter().any(|f| f.0 == h.0) {
+            finalists.push(*h);
+        }
+    }
+    let (best, train, val, used) = validate(&finalists, settings, fine, start, rng);
     let name = format!("robust plan (CEM over the Table II skeleton, {evaluations} candidates)");
     Ok(RobustResult {
-        plan: best.0.to_plan(&name, start),
-        skeleton: best.0,
-        training_rate: best.1,
+        plan: best.to_plan(&name, start),
+        skeleton: best,
+        training_rate: train as f64 / n_train as f64,
+        validation_rate: val,
         evaluations,
+        trials: replays + used,
         generations,
     })
+}
+
+/// Re-scores the `finalists` on fresh validation worlds; returns the winner, its training
+/// successes, its validation rate and the replays simulated.
+fn validate(
+    finalists: &[Scored],
+    settings: &RobustSettings,
+    world: &World<'_>,
+    start: PegStart,
+    rng: &mut impl rand::Rng,
+) -> (Skeleton, usize, Option<f64>, usize) {
+    let n_val = settings.validation_samples;
+    let seed: u64 = rng.random();
+    if n_val == 0 || finalists.len() == 1 {
+        return (finalists[0].0, finalists[0].1, None, 0);
+    }
+    let val_worlds = draws(world.model, &world.uncertainty, world.supports, n_val, seed);
+    let skel: Vec<Skeleton> = finalists.iter().map(|f| f.0).collect();
+    let v = successes(&skel, &val_worlds, world, start);
+    // Most validation successes (unbiased, full fidelity); ties go to the better trained.
+    let i = (0..finalists.len())
+        .fold(0, |b, i| if (v[i], finalists[i].1) > (v[b], finalists[b].1) { i } else { b });
+    let rate = Some(v[i] as f64 / n_val as f64);
+    (finalists[i].0, finalists[i].1, rate, skel.len() * n_val)
 }

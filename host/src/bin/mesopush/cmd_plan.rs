@@ -60,9 +60,16 @@ pub(crate) struct PlanArgs {
     /// With --robust: sampled worlds each candidate is scored on.
     #[arg(long, default_value_t = RobustSettings::default().samples)]
     train_samples: usize,
+    /// With --robust: validation worlds the best candidates are re-scored on.
+    #[arg(long, default_value_t = RobustSettings::default().validation_samples)]
+    validation_samples: usize,
     /// With --robust: fresh Monte Carlo trials for the reported success rate.
     #[arg(long, default_value_t = 400)]
     check_samples: usize,
+    /// With --robust: master seed of the fresh check (default: derived from --seed, never
+    /// the design's own draws).
+    #[arg(long)]
+    check_seed: Option<u64>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -194,7 +201,8 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     }
     let settings = RobustSettings {
         generations: args.generations.max(1),
-        samples: args.train_samples.max(1),
+        samples: args.train_samples.max(2),
+        validation_samples: args.validation_samples,
         ..Default::default()
     };
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
@@ -210,10 +218,20 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     let bar = bar(settings.generations as u64, args.json);
     let t0 = Instant::now();
     let limit = args.time_limit_s;
+    let mut time_limited = false;
+    // Stop before the next generation would cross the limit, keeping time for validation
+    // (about as many replays as a generation of 16 candidates on 96 worlds × 3/4 each).
+    let per_gen = (settings.population * settings.samples * 3 / 4).max(1) as f64;
+    let val = (settings.finalists * settings.validation_samples) as f64;
     let mut on_progress = |g: usize, best: f64| {
         bar.set_position(g as u64);
         bar.set_message(format!("best {:.1} %", 100.0 * best));
-        t0.elapsed().as_secs_f64() < limit
+        let gen_s = t0.elapsed().as_secs_f64() / g as f64;
+        // Validation runs at the fine step: about twice the cost per replay.
+        let next = gen_s * (1.0 + 2.0 * val / per_gen);
+        let go_on = t0.elapsed().as_secs_f64() + 1.2 * next < limit;
+        time_limited |= !go_on && g < settings.generations;
+        go_on
     };
     let r = design_robust(&world, start, &settings, &mut rng, &mut on_progress)?;
     let planning_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -228,7 +246,7 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         supports: &[],
     };
     // Fresh draws (a different master seed from the training worlds') for an honest figure.
-    let check_seed = args.seed.wrapping_add(0x005E_ED0F_C4EC);
+    let check_seed = args.check_seed.unwrap_or(args.seed.wrapping_add(0x005E_ED0F_C4EC));
     let est = mc.estimate(args.check_samples.max(1), check_seed, &|| ())?;
     std::fs::write(&args.out, r.plan.to_toml())
         .with_context(|| format!("writing {}", args.out.display()))?;
@@ -237,7 +255,16 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     }
     let pushes = pushing_moves(&replay(sim, &r.plan, None)?);
     let train = settings.samples;
-    let out = RobustOutput { result: &r, est: &est, feasible, planning_ms, train, pushes };
+    let out = RobustOutput {
+        result: &r,
+        est: &est,
+        feasible,
+        planning_ms,
+        train,
+        pushes,
+        time_limited,
+        check_seed,
+    };
     print_robust(args, &out);
     Ok(())
 }
@@ -249,6 +276,8 @@ struct RobustOutput<'a> {
     planning_ms: f64,
     train: usize,
     pushes: usize,
+    time_limited: bool,
+    check_seed: u64,
 }
 
 fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
@@ -256,7 +285,9 @@ fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
     let summary = json!({
         "found": true, "robust": true, "nominal_feasible": feasible,
         "success_rate": est.success_rate, "ci_low": est.ci_low, "ci_high": est.ci_high,
-        "samples": est.samples, "training_rate": r.training_rate,
+        "samples": est.samples, "check_seed": o.check_seed, "training_rate": r.training_rate,
+        "validation_rate": r.validation_rate, "replays": r.trials,
+        "time_limited": o.time_limited,
         "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
         "iterations": r.evaluations, "generations": r.generations,
         "planning_ms": planning_ms, "seed": args.seed, "plan": &args.out,
@@ -281,8 +312,13 @@ fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
             100.0 * r.training_rate
         );
         println!(
-            "{} candidates in {} generations, {planning_ms:.0} ms",
-            r.evaluations, r.generations
+            "on the validation worlds {:.1} %; {} candidates in {} generations ({} replays), \
+             {planning_ms:.0} ms{}",
+            100.0 * r.validation_rate.unwrap_or(f64::NAN),
+            r.evaluations,
+            r.generations,
+            r.trials,
+            if o.time_limited { " (cut by --time-limit-s)" } else { "" }
         );
     }
 }
