@@ -6,9 +6,10 @@
 
 use super::candidates::{Candidate, NOMINAL};
 use super::data::TrialData;
-use super::fit::{Fit, fit, loss};
-use super::predict::predict;
+use super::fit::{Fit, fit, fit_where, loss};
+use super::predict::{predict, valid_over_batch};
 use super::residual::{Mse, Noise, Residual};
+use super::starts::{StartContext, starts};
 use crate::Error;
 use crate::sim::{Model, SimSettings};
 use rayon::prelude::*;
@@ -41,7 +42,7 @@ impl Default for Options {
             candidates: Candidate::EFFECTS.to_vec(),
             settings: SimSettings::default(),
             min_gain: 0.3,
-            floor_factor: 3.0,
+            floor_factor: 5.0,
             min_delta_bic: 10.0,
         }
     }
@@ -130,21 +131,35 @@ pub fn residuals(
         .collect()
 }
 
-/// Start vectors: the nominal optimum with each combination of the effect's grid values
-/// (patch rectangles from the training workspace).
-fn starts(c: Candidate, nominal: &[f64], train: &[TrialData]) -> Vec<Vec<f64>> {
-    if c == Candidate::FrictionPatch {
-        return super::structure::patch_starts(nominal, train);
+/// The nominal fit, improved where a candidate's fit found better *nominal* parameters: each
+/// candidate's nominal part is tried with its effect off, and the simplex restarted from the
+/// best. Without this an effect could win only because its longer search found a better
+/// μ or support — credit the optimiser earned, not the effect.
+fn rescue_nominal(
+    nominal: Fit,
+    fits: &[Fit],
+    base: &Model,
+    train: &[TrialData],
+    s: &SimSettings,
+    noise: &Noise,
+    evals: usize,
+) -> Fit {
+    let k = NOMINAL.len();
+    let best = fits
+        .iter()
+        .map(|f| {
+            let v = f.values[..k].to_vec();
+            let l = loss(train, &Candidate::Nominal.apply(base, &v), s, noise).0;
+            (v, l)
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    match best {
+        Some((v, l)) if l < nominal.loss => {
+            let refit = fit(Candidate::Nominal, base, train, s, noise, &[v], evals / 2);
+            if refit.loss < nominal.loss { refit } else { nominal }
+        }
+        _ => nominal,
     }
-    let mut out = vec![nominal.to_vec()];
-    for p in c.effect_params() {
-        let grid = if p.grid.is_empty() { &[0.0][..] } else { p.grid };
-        out = out
-            .iter()
-            .flat_map(|v| grid.iter().map(move |g| [v.as_slice(), &[*g]].concat()))
-            .collect();
-    }
-    out
 }
 
 fn bic(f: &Fit) -> f64 {
@@ -169,22 +184,31 @@ pub fn diagnose(
     let all: Vec<TrialData> = train.iter().chain(heldout).cloned().collect();
     let noise = Noise::estimate(&all);
     let with_tip = all.iter().any(TrialData::has_tips);
+    let last_index = all.iter().map(|t| t.index).max().unwrap_or(0);
     let s = &opts.settings;
     progress("nominal");
     let x0 = vec![base.mu_probe, base.support.mu_surface[0], 0.0, 0.0];
     let nominal = fit(Candidate::Nominal, &base, train, s, &noise, &[x0], opts.nominal_evals);
-    let before = residuals(heldout, &nominal.model, s)?;
-    let mse0 = Mse::of(&before);
-    let e0 = mse0.normalised(&noise, with_tip);
     let fits: Vec<Fit> = opts
         .candidates
         .par_iter()
         .map(|&c| {
             progress(c.name());
-            let st = starts(c, &nominal.values, train);
-            fit(c, &base, train, s, &noise, &st, opts.effect_evals.max(st.len() + 4))
+            let ctx = StartContext {
+                base: &base,
+                settings: s,
+                noise: &noise,
+                evals_per_trial: opts.effect_evals / 5,
+            };
+            let st = starts(c, &nominal.values, train, &ctx);
+            let budget = opts.effect_evals.max(st.len() + 4);
+            let ok = |m: &Model| valid_over_batch(m, last_index);
+            fit_where(c, &base, train, s, &noise, &st, budget, &ok)
         })
         .collect();
+    let nominal = rescue_nominal(nominal, &fits, &base, train, s, &noise, opts.nominal_evals);
+    let before = residuals(heldout, &nominal.model, s)?;
+    let e0 = Mse::of(&before).normalised(&noise, with_tip);
     let mut scores = vec![score(&nominal, heldout, s, &noise, with_tip)];
     for f in &fits {
         scores.push(score(f, heldout, s, &noise, with_tip));

@@ -132,11 +132,11 @@ impl Candidate {
                 &P
             }
             Candidate::SpeedFriction => {
-                const P: [Param; 1] = [p("gain_per_mm_s", -3.0, 10.0, 0.2, &[-0.5, 0.5, 2.0])];
+                const P: [Param; 1] = [p("gain_per_mm_s", -3.0, 10.0, 0.2, &[-0.5, 1.0, 2.5])];
                 &P
             }
             Candidate::SupportDrift => {
-                const G: &[f64] = &[-10.0, 10.0];
+                const G: &[f64] = &[-12.0, 0.0, 12.0];
                 const P: [Param; 2] = [
                     p("drift_x_um_per_trial", -100.0, 100.0, 3.0, G),
                     p("drift_y_um_per_trial", -100.0, 100.0, 3.0, G),

@@ -131,11 +131,30 @@ pub fn fit(
     starts: &[Vec<f64>],
     max_evals: usize,
 ) -> Fit {
+    fit_where(candidate, base, trials, settings, noise, starts, max_evals, &|_| true)
+}
+
+/// [`fit`] over the models `admissible` accepts (the others score as unsimulable).
+#[allow(clippy::too_many_arguments)]
+pub fn fit_where(
+    candidate: Candidate,
+    base: &Model,
+    trials: &[TrialData],
+    settings: &SimSettings,
+    noise: &Noise,
+    starts: &[Vec<f64>],
+    max_evals: usize,
+    admissible: &dyn Fn(&Model) -> bool,
+) -> Fit {
     let params = candidate.params();
     let mut evals = 0;
     let mut eval = |v: &[f64]| -> f64 {
         evals += 1;
-        loss(trials, &candidate.apply(base, &clamp(&params, v)), settings, noise).0
+        let m = candidate.apply(base, &clamp(&params, v));
+        if !admissible(&m) {
+            return FAILED;
+        }
+        loss(trials, &m, settings, noise).0
     };
     let mut best: Option<(Vec<f64>, f64)> = None;
     for s in starts {

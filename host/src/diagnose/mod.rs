@@ -12,6 +12,8 @@ pub mod fit;
 pub mod predict;
 pub mod report;
 pub mod residual;
+pub mod rig_batch;
+pub mod starts;
 pub mod structure;
 pub mod synth;
 

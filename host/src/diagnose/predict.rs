@@ -27,10 +27,16 @@ pub struct Prediction {
 /// The model a trial sees: its own part and probe, and the support drifted to its place in
 /// the batch.
 pub fn model_for_trial(model: &Model, data: &TrialData) -> Model {
-    let mut m = model.clone();
+    let mut m = model_for_index(model, data.index);
     m.probe_radius_um = data.probe_radius_um;
+    m
+}
+
+/// The model of the trial at place `index` in the batch: the support drifted there.
+fn model_for_index(model: &Model, index: usize) -> Model {
+    let mut m = model.clone();
     if let Some(d) = &model.effects.support_drift {
-        let k = data.index as f64;
+        let k = index as f64;
         for p in &mut m.support.points_um {
             p[0] += k * d.points_um_per_trial[0];
             p[1] += k * d.points_um_per_trial[1];
@@ -40,6 +46,21 @@ pub fn model_for_trial(model: &Model, data: &TrialData) -> Model {
         }
     }
     m
+}
+
+/// Whether `model` is physical for every trial of a batch whose last index is `last_index`:
+/// with a support drift, the drifted support must stay inside the part and hold its weight
+/// at both ends of the batch (and so, the drift being linear and the part convex, between).
+/// A fit must not explain the training trials with a drift that no held-out trial could
+/// have had.
+pub fn valid_over_batch(model: &Model, last_index: usize) -> bool {
+    if model.effects.support_drift.is_none() {
+        return true;
+    }
+    [0, last_index].into_iter().all(|k| {
+        let m = model_for_index(model, k);
+        m.validate().is_ok()
+    })
 }
 
 /// Linear interpolation of the samples at `t_s` (clamped to the replay's span).

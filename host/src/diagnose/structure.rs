@@ -4,7 +4,6 @@
 //! physical signatures the report quotes for an effect, and the description it gives when
 //! nothing in the library explains the residual.
 
-use super::data::TrialData;
 use super::residual::{FrameResidual, Noise, Residual};
 use serde::Serialize;
 
@@ -181,32 +180,4 @@ impl Structure {
             noise.xy_um,
         )
     }
-}
-
-/// Friction-patch start vectors: the nominal optimum with a patch covering each half of the
-/// training workspace (left, right, top, bottom; the peg's extent added), at three μ values.
-pub fn patch_starts(nominal: &[f64], train: &[TrialData]) -> Vec<Vec<f64>> {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for f in train.iter().flat_map(|t| &t.frames) {
-        for (k, v) in [f.pose.x_um, f.pose.y_um].into_iter().enumerate() {
-            lo[k] = lo[k].min(v);
-            hi[k] = hi[k].max(v);
-        }
-    }
-    let r = train.first().map_or(1000.0, |t| t.part.char_length_um());
-    let (lo, hi) = ([lo[0] - r, lo[1] - r], [hi[0] + r, hi[1] + r]);
-    let mid = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
-    let rects = [
-        [lo[0], lo[1], mid[0], hi[1]],
-        [mid[0], lo[1], hi[0], hi[1]],
-        [lo[0], lo[1], hi[0], mid[1]],
-        [lo[0], mid[1], hi[0], hi[1]],
-    ];
-    let mut out = Vec::new();
-    for mu in [0.1, 0.6, 1.0] {
-        for rc in rects {
-            out.push([nominal, &[mu], &rc[..]].concat());
-        }
-    }
-    out
 }

@@ -99,8 +99,12 @@ impl FrictionPatch {
     }
 }
 
-/// Speed-dependent surface friction: μ(v) = μ·(1 + `gain_per_mm_s`·v/(1 mm/s)), with v the
-/// probe speed (in quasi-static pushing the sliding speed scales with it).
+/// Speed-dependent surface friction: each support's μ(v) = μ·(1 + `gain_per_mm_s`·v/(1 mm/s)),
+/// with v that support's own sliding speed on the plate (its slip per µm of probe travel in
+/// the previous steps times the probe speed). A friction that changed alike at every support
+/// would scale every support force by one factor and leave the quasi-static motion as it
+/// was; friction that follows each contact's own slip is what changes it: a peg turning
+/// about a point near one support drags its far supports faster, and they grip harder.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SpeedFriction {

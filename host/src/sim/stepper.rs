@@ -70,6 +70,8 @@ pub struct Simulator {
     warm: Vec<bool>,
     warm_kinds: Vec<ContactKind>,
     probe_speed_um_s: f64,
+    /// Each support's sliding speed over the last steps, µm/s (speed-dependent friction).
+    support_slip_um_s: [f64; N_SUPPORTS],
 }
 
 impl Simulator {
@@ -98,11 +100,13 @@ impl Simulator {
             warm: Vec::with_capacity(capacity),
             warm_kinds: Vec::with_capacity(16),
             probe_speed_um_s: 0.0,
+            support_slip_um_s: [0.0; N_SUPPORTS],
         })
     }
 
     /// Tells the simulator how fast the probe moves now, µm/s (used only by the
-    /// speed-dependent friction effect; [`super::follow_path`] sets it per segment).
+    /// speed-dependent friction effect, which turns each support's slip per µm of probe
+    /// travel into a sliding speed; [`super::follow_path`] sets it per segment).
     pub fn set_probe_speed_um_s(&mut self, speed_um_s: f64) {
         self.probe_speed_um_s = speed_um_s;
     }
@@ -204,6 +208,7 @@ impl Simulator {
         let margin = self.settings.contact_margin_um + delta_um.norm();
         let r = self.model.probe_radius_um;
         let Some(probe) = probe_contact(&peg, &state.probe_um, r, margin) else {
+            self.support_slip_um_s = [0.0; N_SUPPORTS];
             state.probe_um += delta_um;
             return Ok(StepInfo::default());
         };
@@ -222,7 +227,8 @@ impl Simulator {
     }
 
     /// Surface friction at each support now (the model's, changed by the friction patch
-    /// and speed-dependent friction effects when they are on).
+    /// and speed-dependent friction effects when they are on; speed friction uses each
+    /// support's own sliding speed, from the steps before).
     fn surface_friction(&self, peg: &crate::geom::Pose) -> [f64; 3] {
         let mut mu = self.model.support.mu_surface;
         let fx = &self.model.effects;
@@ -235,8 +241,9 @@ impl Simulator {
             }
         }
         if let Some(sf) = &fx.speed_friction {
-            let k = sf.factor(self.probe_speed_um_s);
-            mu.iter_mut().for_each(|m| *m *= k);
+            for (m, v) in mu.iter_mut().zip(self.support_slip_um_s) {
+                *m *= sf.factor(v);
+            }
         }
         mu
     }
@@ -300,11 +307,30 @@ impl Simulator {
                 info.active.push((c.kind, mode));
             }
         }
-        state.peg.x_um += z[0];
-        state.peg.y_um += z[1];
-        state.peg.theta_rad += z[2] / self.char_len_um;
+        let dz = [z[0], z[1], z[2] / self.char_len_um];
+        if self.model.effects.speed_friction.is_some() {
+            self.track_support_slip(&supports, dz, delta_um.norm());
+        }
+        state.peg.x_um += dz[0];
+        state.peg.y_um += dz[1];
+        state.peg.theta_rad += dz[2];
         state.probe_um += delta_um;
         Ok(info)
+    }
+}
+
+impl Simulator {
+    /// Updates each support's sliding speed from the step's peg motion `[dx, dy, dθ]`
+    /// (supports at `supports` from the COM) over `travel_um` of probe travel at the probe's
+    /// speed; half the old value is kept, so the friction it sets cannot flip step to step.
+    fn track_support_slip(&mut self, supports: &[Vec2; N_SUPPORTS], d: [f64; 3], travel_um: f64) {
+        if travel_um <= 0.0 {
+            return;
+        }
+        for (v, r) in self.support_slip_um_s.iter_mut().zip(supports) {
+            let slip = Vec2::new(d[0] - d[2] * r.y, d[1] + d[2] * r.x).norm();
+            *v = 0.5 * *v + 0.5 * slip / travel_um * self.probe_speed_um_s;
+        }
     }
 }
 

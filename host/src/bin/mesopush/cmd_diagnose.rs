@@ -7,6 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_host::diagnose::report;
+use mesopush_host::diagnose::rig_batch::write_rig_batch;
 use mesopush_host::diagnose::synth::{SynthNoise, realistic_effect, true_nominal, write_trial};
 use mesopush_host::diagnose::{Candidate, Diagnosis, Options, TrialData, diagnose};
 use rand::SeedableRng;
@@ -34,7 +35,12 @@ pub(crate) struct DiagnoseArgs {
     /// `none`) instead of diagnosing.
     #[arg(long, value_name = "EFFECT")]
     synth: Option<String>,
-    /// Trials per synthetic batch.
+    /// Make a batch into --out through the whole loop (executor, firmware simulator,
+    /// camera, tracker; simulated time) in this world file, whose `[effects]` the host is
+    /// never told, instead of diagnosing.
+    #[arg(long, value_name = "WORLD")]
+    rig_world: Option<PathBuf>,
+    /// Trials per synthetic (or --rig-world) batch.
     #[arg(long, default_value_t = 6)]
     n_trials: usize,
     /// Strokes per synthetic trial.
@@ -44,12 +50,16 @@ pub(crate) struct DiagnoseArgs {
     /// seeds each) and print the confusion matrix and before/after errors.
     #[arg(long, value_name = "SEEDS")]
     confusion: Option<usize>,
+    /// With --confusion: only these true effects (comma-separated library names, `none` for
+    /// the clean control); default every effect and the clean control.
+    #[arg(long, value_delimiter = ',', value_name = "EFFECTS")]
+    pub(crate) only: Vec<String>,
     /// Seed of the synthetic batches.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
 }
 
-fn candidate(name: &str) -> Result<Candidate> {
+pub(crate) fn candidate(name: &str) -> Result<Candidate> {
     if name == "none" {
         return Ok(Candidate::Nominal);
     }
@@ -123,6 +133,12 @@ pub(crate) fn run(args: &DiagnoseArgs) -> Result<()> {
     if let Some(name) = &args.synth {
         let dirs =
             synth_batch(&args.out, candidate(name)?, args.n_trials, args.strokes, args.seed)?;
+        println!("wrote {} trials under {}", dirs.len(), args.out.display());
+        return Ok(());
+    }
+    if let Some(path) = &args.rig_world {
+        let world = mesopush_host::rig::WorldFile::load(path)?;
+        let dirs = write_rig_batch(&args.out, &world, args.n_trials, args.seed)?;
         println!("wrote {} trials under {}", dirs.len(), args.out.display());
         return Ok(());
     }

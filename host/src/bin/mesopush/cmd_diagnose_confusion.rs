@@ -2,15 +2,19 @@
 //! effect (clean controls included), summarised as a confusion matrix (true effect ×
 //! verdict) and the mean held-out errors before and after.
 
-use super::cmd_diagnose::{DiagnoseArgs, blind};
+use super::cmd_diagnose::{DiagnoseArgs, blind, candidate};
 use anyhow::Result;
 use indicatif::ProgressBar;
 use mesopush_host::diagnose::report::mse_before_after;
 use mesopush_host::diagnose::{Candidate, Options, Verdict};
 
 pub(crate) fn run(args: &DiagnoseArgs, opts: &Options, seeds: usize) -> Result<()> {
-    let truths: Vec<Candidate> =
-        std::iter::once(Candidate::Nominal).chain(Candidate::EFFECTS).collect();
+    let truths: Vec<Candidate> = if args.only.is_empty() {
+        std::iter::once(Candidate::Nominal).chain(Candidate::EFFECTS).collect()
+    } else {
+        args.only.iter().map(|n| candidate(n)).collect::<Result<_>>()?
+    };
+    let started = std::time::Instant::now();
     let pb = ProgressBar::new((truths.len() * seeds) as u64);
     let mut rows = Vec::new();
     for &t in &truths {
@@ -23,11 +27,27 @@ pub(crate) fn run(args: &DiagnoseArgs, opts: &Options, seeds: usize) -> Result<(
                 Verdict::Unexplained => "unexplained".into(),
                 Verdict::None => "none".into(),
             };
+            let scores: Vec<String> = d
+                .scores
+                .iter()
+                .map(|s| {
+                    let v: Vec<String> = s.params.iter().map(|p| format!("{:.3}", p.1)).collect();
+                    format!(
+                        "{} held-out {:.1} bic {:.0} ({})",
+                        s.candidate.name(),
+                        s.heldout_norm,
+                        s.bic,
+                        v.join(" ")
+                    )
+                })
+                .collect();
+            eprintln!("{} seed {seed}: {called}\n  {}", t.name(), scores.join("\n  "));
             rows.push((t, seed, called, b, a));
             pb.inc(1);
         }
     }
     pb.finish_and_clear();
+    eprintln!("{} batches in {:.0} s", rows.len(), started.elapsed().as_secs_f64());
     let cols: Vec<String> = Candidate::EFFECTS
         .iter()
         .map(|c| c.name().to_string())

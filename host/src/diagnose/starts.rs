@@ -1,0 +1,175 @@
+//! Where each candidate's search starts. A simplex only finds what its start can see, so the
+//! starts come from the physics of each effect's signature:
+//! - a friction patch shows only where the peg straddles the patch's edge (a uniform change
+//!   of the surface friction scales every support force alike and moves nothing), so the
+//!   starts are half-planes whose edge runs through the training workspace (at the quartiles
+//!   of the measured peg positions, per axis), with a patch friction above and below the
+//!   nominal one; a patch on the high side with μ_patch = r·μ is the low side with μ/r;
+//! - a support drift is a trend of the support over the trials' places in the batch: the
+//!   support shift fitted to each training trial alone, regressed on its index, gives the
+//!   drift's first guess (the trend the residual shows by trial); the grid starts are
+//!   measured about the training trials' mean index (the nominal fit saw the average
+//!   support), so they shift the support back by the drift times that mean index;
+//! - every other effect starts from the nominal optimum with each combination of its grid.
+
+use super::candidates::Candidate;
+use super::data::TrialData;
+use super::fit::fit;
+use super::residual::Noise;
+use crate::sim::{Model, SimSettings};
+
+/// What the signature-based starts need to fit the nominal model to one trial.
+#[derive(Debug, Clone, Copy)]
+pub struct StartContext<'a> {
+    /// The base model the candidates apply their parameters to.
+    pub base: &'a Model,
+    /// Simulator settings.
+    pub settings: &'a SimSettings,
+    /// The measurement floor.
+    pub noise: &'a Noise,
+    /// Evaluations for each per-trial nominal fit.
+    pub evals_per_trial: usize,
+}
+
+/// Start vectors (full parameter vectors) of `c` from the nominal optimum `nominal`.
+pub fn starts(
+    c: Candidate,
+    nominal: &[f64],
+    train: &[TrialData],
+    ctx: &StartContext<'_>,
+) -> Vec<Vec<f64>> {
+    match c {
+        Candidate::FrictionPatch => patch_starts(nominal, train),
+        Candidate::SupportDrift => {
+            let mut s = drift_starts(nominal, train);
+            s.extend(drift_trend_start(nominal, train, ctx));
+            s
+        }
+        _ => grid_starts(c, nominal),
+    }
+}
+
+/// The drift read off the residual's trend by trial: each training trial's own nominal fit
+/// (from the batch's), its support shift regressed on the trial's index. `None` with fewer
+/// than two distinct indices.
+fn drift_trend_start(
+    nominal: &[f64],
+    train: &[TrialData],
+    ctx: &StartContext<'_>,
+) -> Option<Vec<f64>> {
+    let (s, noise) = (ctx.settings, ctx.noise);
+    let per: Vec<(f64, [f64; 2])> = train
+        .iter()
+        .map(|t| {
+            let one = std::slice::from_ref(t);
+            let f = fit(
+                Candidate::Nominal,
+                ctx.base,
+                one,
+                s,
+                noise,
+                &[nominal.to_vec()],
+                ctx.evals_per_trial,
+            );
+            (t.index as f64, [f.values[2], f.values[3]])
+        })
+        .collect();
+    let n = per.len() as f64;
+    let k_mean = per.iter().map(|p| p.0).sum::<f64>() / n;
+    let skk: f64 = per.iter().map(|p| (p.0 - k_mean).powi(2)).sum();
+    if per.len() < 2 || skk <= 0.0 {
+        return None;
+    }
+    let mut v = nominal.to_vec();
+    for a in 0..2 {
+        let mean = per.iter().map(|p| p.1[a]).sum::<f64>() / n;
+        let slope = per.iter().map(|p| (p.0 - k_mean) * (p.1[a] - mean)).sum::<f64>() / skk;
+        v[2 + a] = mean - slope * k_mean;
+        v.push(slope);
+    }
+    Some(v)
+}
+
+fn grid_starts(c: Candidate, nominal: &[f64]) -> Vec<Vec<f64>> {
+    let mut out = vec![nominal.to_vec()];
+    for p in c.effect_params() {
+        let grid = if p.grid.is_empty() { &[0.0][..] } else { p.grid };
+        out = out
+            .iter()
+            .flat_map(|v| grid.iter().map(move |g| [v.as_slice(), &[*g]].concat()))
+            .collect();
+    }
+    out
+}
+
+/// Support-drift starts: drifts along each axis, the nominal shift moved back so that the
+/// training trials' mean index keeps the support the nominal fit found.
+fn drift_starts(nominal: &[f64], train: &[TrialData]) -> Vec<Vec<f64>> {
+    let k_mean = train.iter().map(|t| t.index as f64).sum::<f64>() / train.len().max(1) as f64;
+    // A star along each body axis, near and far (a drift usually has one direction).
+    let mut drifts = vec![[0.0, 0.0]];
+    for m in [8.0, 20.0] {
+        drifts.extend([[m, 0.0], [-m, 0.0], [0.0, m], [0.0, -m]]);
+    }
+    drifts
+        .into_iter()
+        .map(|[gx, gy]| {
+            let mut v = nominal.to_vec();
+            v[2] -= k_mean * gx;
+            v[3] -= k_mean * gy;
+            v.extend([gx, gy]);
+            v
+        })
+        .collect()
+}
+
+/// The `q` quantile of `v` (sorted in place).
+fn quantile(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(((v.len() as f64 - 1.0) * q).round() as usize).copied().unwrap_or(0.0)
+}
+
+/// Friction-patch starts: half-planes x > edge or y > edge, the edge at the quartiles of the
+/// training peg positions, patch friction 0.4× and 2.5× the nominal surface friction; the
+/// rectangle's other sides at the parameter bounds (far outside any workspace).
+pub fn patch_starts(nominal: &[f64], train: &[TrialData]) -> Vec<Vec<f64>> {
+    let params = Candidate::FrictionPatch.effect_params();
+    let (lo, hi) = (params[1].lo, params[1].hi);
+    let mut xs: Vec<f64> = train.iter().flat_map(|t| &t.frames).map(|f| f.pose.x_um).collect();
+    let mut ys: Vec<f64> = train.iter().flat_map(|t| &t.frames).map(|f| f.pose.y_um).collect();
+    let mu_s = nominal[1];
+    let mut out = Vec::new();
+    for q in [0.25, 0.5, 0.75] {
+        let (ex, ey) = (quantile(&mut xs, q), quantile(&mut ys, q));
+        for ratio in [0.4, 2.5] {
+            let mu = (ratio * mu_s).clamp(params[0].lo, params[0].hi);
+            out.push([nominal, &[mu, ex, lo, hi, hi]].concat());
+            out.push([nominal, &[mu, lo, ey, hi, hi]].concat());
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_starts_are_every_combination() {
+        let nominal = [0.8, 0.3, 0.0, 0.0];
+        let s = grid_starts(Candidate::Backlash, &nominal);
+        assert_eq!(s.len(), 9);
+        assert!(s.iter().all(|v| v.len() == 6 && v[..4] == nominal));
+    }
+
+    #[test]
+    fn a_patch_start_is_a_half_plane_through_the_workspace() {
+        let s = patch_starts(&[0.8, 0.3, 0.0, 0.0], &[]);
+        assert_eq!(s.len(), 12);
+        for v in &s {
+            let f = Candidate::FrictionPatch.apply(&crate::sim::Model::default(), v);
+            let p = f.effects.friction_patch.expect("a patch");
+            assert!(p.max_um[0] >= 1e4 && p.max_um[1] >= 1e4, "{p:?}");
+        }
+    }
+}
