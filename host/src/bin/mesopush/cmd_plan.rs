@@ -60,6 +60,10 @@ pub(crate) struct PlanArgs {
     /// With --robust: sampled worlds each candidate is scored on.
     #[arg(long, default_value_t = RobustSettings::default().samples)]
     train_samples: usize,
+    /// With --robust: simulator step of the training replays, µm (validation and the check
+    /// use the full-fidelity default).
+    #[arg(long, default_value_t = RobustSettings::default().train_step_um)]
+    train_step_um: f64,
     /// With --robust: validation worlds the best candidates are re-scored on.
     #[arg(long, default_value_t = RobustSettings::default().validation_samples)]
     validation_samples: usize,
@@ -203,6 +207,7 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         generations: args.generations.max(1),
         samples: args.train_samples.max(2),
         validation_samples: args.validation_samples,
+        train_step_um: args.train_step_um,
         ..Default::default()
     };
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
