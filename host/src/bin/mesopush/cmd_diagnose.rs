@@ -8,7 +8,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_host::diagnose::report;
 use mesopush_host::diagnose::rig_batch::write_rig_batch;
-use mesopush_host::diagnose::synth::{SynthNoise, realistic_effect, true_nominal, write_trial};
+use mesopush_host::diagnose::synth::{SynthNoise, batch_truth, write_trial};
 use mesopush_host::diagnose::{Candidate, Diagnosis, Options, TrialData, diagnose};
 use rand::SeedableRng;
 use std::path::{Path, PathBuf};
@@ -77,8 +77,7 @@ fn synth_batch(
     seed: u64,
 ) -> Result<Vec<PathBuf>> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let mut truth = true_nominal(&mut rng);
-    truth.effects = realistic_effect(effect, &mut rng);
+    let truth = batch_truth(effect, n, &mut rng);
     (0..n)
         .map(|i| {
             let id = format!("trial-{i:03}");

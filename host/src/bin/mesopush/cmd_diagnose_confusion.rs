@@ -20,7 +20,15 @@ pub(crate) fn run(args: &DiagnoseArgs, opts: &Options, seeds: usize) -> Result<(
     for &t in &truths {
         for k in 0..seeds {
             let seed = args.seed + k as u64;
-            let d = blind(args, opts, t, seed)?;
+            let d = match blind(args, opts, t, seed) {
+                Ok(d) => d,
+                Err(e) => {
+                    // One batch that cannot be made or diagnosed must not lose the others.
+                    eprintln!("{} seed {seed}: error: {e:#}", t.name());
+                    pb.inc(1);
+                    continue;
+                }
+            };
             let (b, a) = mse_before_after(&d);
             let called = match d.verdict {
                 Verdict::Effect => d.best.candidate.name().to_string(),
