@@ -185,3 +185,49 @@ fn other_image_sizes_work_with_their_calibration() {
     assert!(position_error(&m, &truth) < 1.0, "{m:?}");
     assert!((m.probe_tip_um.unwrap() - tip).norm() < 10.0, "{m:?}");
 }
+
+/// Caught: the tracker compared every frame with the last *good* frame using the one-frame
+/// tolerance, so after a stretch of frames with the needle over the peg (flagged, not
+/// trusted) during which the peg moved on, the clean frames after it were flagged `jump`
+/// too — in the rig batch that left the peg at rest with no unflagged frame to judge on.
+#[test]
+fn good_frames_after_a_stretch_of_flagged_frames_are_not_flagged_as_jumps() {
+    let mut rig = Rig::default();
+    let y = 1260.0;
+    let clean = |rig: &mut Rig, x: f64| {
+        let img = rig.frame(Pose::new(x, y, 0.1), None);
+        rig.tracker.track(&img).unwrap()
+    };
+    let m = clean(&mut rig, 1000.0);
+    assert!(m.flags.is_empty(), "{m:?}");
+    // the needle lies over the peg while it moves 130 µm per frame
+    for k in 1..=3 {
+        let x = 1000.0 + 130.0 * f64::from(k);
+        let img = rig.frame(Pose::new(x, y, 0.1), Some(Vec2::new(x - 100.0, y + 40.0)));
+        let m = rig.tracker.track(&img).unwrap();
+        assert!(m.flags.contains(&Flag::ProbeOcclusion), "frame {k}: {m:?}");
+    }
+    // 520 µm from the last trusted pose, four frame periods later: a plausible push
+    let m = clean(&mut rig, 1520.0);
+    assert!(m.flags.is_empty(), "after the stretch: {m:?}");
+    assert!(position_error(&m, &Pose::new(1520.0, y, 0.1)) < 1.0, "{m:?}");
+    // a dropped frame between two clean ones widens the tolerance the same way
+    let img = rig.frame(Pose::new(1520.0 + 700.0, y, 0.1), None);
+    let m = rig.tracker.track_after(&img, 2).unwrap();
+    assert!(m.flags.is_empty(), "700 µm over two periods: {m:?}");
+}
+
+/// A real jump (further than a push moves the peg in the time since the trusted pose) is
+/// still flagged — once: the clean view is reacquired and the frames after it are good.
+#[test]
+fn a_real_jump_flags_one_frame_and_is_reacquired() {
+    let mut rig = Rig::default();
+    let y = 1260.0;
+    for (k, x, jump) in [(0, 1000.0, false), (1, 1050.0, false), (2, 1600.0, true), (3, 1620.0, false)]
+    {
+        let img = rig.frame(Pose::new(x, y, 0.1), None);
+        let m = rig.tracker.track(&img).unwrap();
+        let want = if jump { vec![Flag::Jump] } else { vec![] };
+        assert_eq!(m.flags, want, "frame {k}: {m:?}");
+    }
+}

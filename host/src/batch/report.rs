@@ -138,6 +138,17 @@ fn faults_and_reasons(m: &mut String, s: &Summary) {
         "| faults injected | {} |\n| faults detected | {} |\n| **records lost** | **{}** |\n",
         s.faults_injected, s.faults_detected, s.records_lost
     );
+    let c = &s.faults_by_class;
+    m.push_str("| fault class | injected | detected |\n|---|---:|---:|\n");
+    for (name, f) in [
+        ("camera (dropped, black frames)", c.camera),
+        ("controller (stall, limit switch, reboot)", c.controller),
+        ("executor-controller link (detections are link events)", c.exec_ctrl_link),
+        ("host-executor link (detections not observed)", c.host_exec_link),
+    ] {
+        let _ = writeln!(m, "| {name} | {} | {} |", f.injected, f.detected);
+    }
+    m.push('\n');
     m.push_str("## Failure reasons\n\n| verdict | reason | trials |\n|---|---|---:|\n");
     for r in s.reasons.iter().filter(|r| r.verdict != super::Verdict::Inserted) {
         let _ = writeln!(

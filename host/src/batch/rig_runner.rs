@@ -18,7 +18,7 @@ use super::runner::{Cancel, TrialJob, TrialResult, TrialRunner, Verdict};
 use super::sim_runner::no_start_pose;
 use super::spec::CameraSpec;
 use crate::Error;
-use crate::rig::{ClockMode, TrialReport, TrialSpec, WorldFile, run_trial};
+use crate::rig::{ClockMode, FaultCount, TrialReport, TrialSpec, WorldFile, run_trial};
 use crate::sim::Fixture;
 use crate::trial::{TrialMeta, TrialState};
 use crate::vision::RenderSettings;
@@ -66,22 +66,37 @@ impl RigRunner {
     }
 }
 
-/// Verdict and reason from the loop's report.
+/// Verdict and reason from the loop's report. A miss after a world jam (the peg wedged, the
+/// needle bent beyond its limit) says so: `missed, jammed: …`.
 fn verdict(r: &TrialReport) -> (Verdict, String) {
     let why = r.reason.clone().unwrap_or_default();
-    match r.state {
-        TrialState::Done if r.inserted == Some(true) => {
+    let jam = (r.jams > 0).then(|| {
+        format!(
+            "peg wedged, needle deflected up to {:.0} µm (limit {:.0} µm) in {} jam(s)",
+            r.max_deflection_um,
+            crate::rig::world::NEEDLE_DEFLECTION_LIMIT_UM,
+            r.jams
+        )
+    });
+    match (r.state, jam) {
+        (TrialState::Done, _) if r.inserted == Some(true) => {
             (Verdict::Inserted, "inserted: last tracked pose inside the channel".into())
         }
-        TrialState::Done if r.inserted.is_none() => {
+        (TrialState::Done, None) if r.inserted.is_none() => {
             (Verdict::Missed, "missed, no tracked final pose: cannot judge".into())
         }
-        TrialState::Done => {
+        (TrialState::Done, Some(j)) if r.inserted.is_none() => {
+            (Verdict::Missed, format!("missed, jammed: {j}; no tracked final pose"))
+        }
+        (TrialState::Done, None) => {
             (Verdict::Missed, "missed: last tracked pose outside the channel".into())
         }
-        TrialState::Faulted => (Verdict::Faulted, format!("executor fault: {why}")),
-        TrialState::Aborted => (Verdict::Faulted, format!("aborted: {why}")),
-        TrialState::Incomplete => (Verdict::Error, format!("loop did not end: {why}")),
+        (TrialState::Done, Some(j)) => {
+            (Verdict::Missed, format!("missed, jammed: {j}; last tracked pose outside the channel"))
+        }
+        (TrialState::Faulted, _) => (Verdict::Faulted, format!("executor fault: {why}")),
+        (TrialState::Aborted, _) => (Verdict::Faulted, format!("aborted: {why}")),
+        (TrialState::Incomplete, _) => (Verdict::Error, format!("loop did not end: {why}")),
     }
 }
 
@@ -99,6 +114,7 @@ impl TrialRunner for RigRunner {
             let e = cam.estimate(job.peg_start, nominal.probe_start(), &mut rng);
             out.faults_injected += e.injected;
             out.faults_detected += e.detected;
+            out.faults.camera = FaultCount { injected: e.injected, detected: e.detected };
             out.dropped_frames += e.injected;
             let Some(p) = e.pose else {
                 let mut meta =
@@ -139,8 +155,10 @@ impl TrialRunner for RigRunner {
         out.final_pose = r.final_pose;
         out.frames = r.frames;
         out.dropped_frames += r.dropped_frames;
+        // every class's detections: camera, controller and executor-controller link
+        out.faults.add(&r.faults);
         out.faults_injected += r.faults_injected;
-        out.faults_detected += r.faults_detected;
+        out.faults_detected += r.faults.total().detected;
         out.records_lost += r.records_lost;
         out.track_error_um_max = out.track_error_um_max.max(r.track_error_um_max);
         out.sim_time_s = r.sim_time_s;

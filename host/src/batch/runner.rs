@@ -83,8 +83,11 @@ pub struct TrialResult {
     pub dropped_frames: u64,
     /// Faults the world injected.
     pub faults_injected: u64,
-    /// Faults the loop detected.
+    /// Faults the loop detected (the sum of `faults`' detections; see docs/batch.md).
     pub faults_detected: u64,
+    /// Faults injected and detected by class (absent in journals written before it: zero).
+    #[serde(default)]
+    pub faults: crate::rig::FaultClasses,
     /// Records that should be in the trial log and are not (must be 0).
     pub records_lost: u64,
     /// Largest tracking error against the world's truth, µm (0 when not tracked).

@@ -11,6 +11,7 @@ use super::runner::{Cancel, TrialJob, TrialResult, TrialRunner, Verdict};
 use super::spec::CameraSpec;
 use crate::Error;
 use crate::geom::Pose;
+use crate::rig::FaultCount;
 use crate::sim::{Fixture, Model, Replay, SimSettings, Simulator, replay};
 use crate::trial::{EventRow, Outcome, PoseRow, ProbeRow, TrialMeta, TrialState, TrialWriter};
 use crate::vision::{Calibration, RenderSettings};
@@ -152,6 +153,7 @@ impl TrialRunner for SimRunner {
             out.dropped_frames = e.injected;
             out.faults_injected = e.injected;
             out.faults_detected = e.detected;
+            out.faults.camera = FaultCount { injected: e.injected, detected: e.detected };
             out.estimated_start = e.pose;
             out.track_error_um_max = e.pose.map_or(0.0, |p| err_um(&p, &job.peg_start));
         }
@@ -215,6 +217,7 @@ pub(super) fn no_start_pose(
     out.dropped_frames = e.injected;
     out.faults_injected = e.injected;
     out.faults_detected = e.detected;
+    out.faults.camera = FaultCount { injected: e.injected, detected: e.detected };
     Ok(out)
 }
 

@@ -85,6 +85,8 @@ pub struct Summary {
     pub faults_injected: u64,
     /// Faults the loop detected, over every attempt.
     pub faults_detected: u64,
+    /// The same by class (see docs/batch.md, "Faults injected and detected").
+    pub faults_by_class: crate::rig::FaultClasses,
     /// Records lost, over every attempt (must be 0).
     pub records_lost: u64,
     /// Wall-clock time of all attempts, s.
@@ -149,6 +151,7 @@ pub fn summarize(b: &Loaded) -> Summary {
         discarded: 0,
         faults_injected: 0,
         faults_detected: 0,
+        faults_by_class: crate::rig::FaultClasses::default(),
         records_lost: 0,
         wall_time_s: 0.0,
         trials_per_s: 0.0,
@@ -162,6 +165,7 @@ pub fn summarize(b: &Loaded) -> Summary {
                 s.attempts += 1;
                 s.faults_injected += a.result.faults_injected;
                 s.faults_detected += a.result.faults_detected;
+                s.faults_by_class.add(&a.result.faults);
                 s.records_lost += a.result.records_lost;
                 s.wall_time_s += a.wall_time_s;
                 s.sim_time_s += a.result.sim_time_s;

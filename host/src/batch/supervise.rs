@@ -50,6 +50,7 @@ pub fn engine_verdict(verdict: Verdict, reason: String) -> TrialResult {
         dropped_frames: 0,
         faults_injected: 0,
         faults_detected: 0,
+        faults: crate::rig::FaultClasses::default(),
         records_lost: 0,
         track_error_um_max: 0.0,
         sim_time_s: 0.0,

@@ -85,9 +85,14 @@ fn tracked_poses(
     };
     let mut tracker = Tracker::new(&bg, settings)?;
     let mut out = Vec::new();
+    let mut last_index: Option<u64> = None;
     for f in frames.iter().filter(|f| !f.dropped && !f.black) {
         let (Some(file), Some(t)) = (&f.file, f.t_capture_us) else { continue };
-        let m = tracker.track(&load_gray(&dir.join(file))?)?;
+        // dropped and black frames in between widen the tracker's jump tolerance
+        let periods = last_index.map_or(1, |i| f.index.saturating_sub(i));
+        last_index = Some(f.index);
+        let image = load_gray(&dir.join(file))?;
+        let m = tracker.track_after(&image, u32::try_from(periods).unwrap_or(u32::MAX))?;
         let Some(p) = m.pose else { continue };
         let row = PoseRow {
             t_us: t,

@@ -10,11 +10,13 @@
 //! - [`pty`]: the lock-stepped pseudo-terminal; [`simloop`]: the loop in simulated time;
 //!   [`realtime`]: the same parts on threads in real time.
 //! - [`recorder`]: log records and frames → trial directory (+ tracking).
-//! - [`trial`]: [`run_trial`], [`TrialSpec`], [`TrialReport`]; [`figure`]: tracked vs
+//! - [`trial`]: [`run_trial`], [`TrialSpec`], [`TrialReport`]; [`truth_log`]: truth.csv and
+//!   jam events; [`figure`]: tracked vs
 //!   simulated trajectory figure.
 
 pub mod complete;
 pub mod ctrl_serve;
+pub mod faults;
 pub mod figure;
 pub mod fwsim;
 pub mod hil;
@@ -25,8 +27,10 @@ pub mod recorder;
 pub mod session;
 pub mod simloop;
 pub mod trial;
+pub mod truth_log;
 pub mod world;
 pub mod world_file;
 
+pub use faults::{FaultClasses, FaultCount};
 pub use trial::{ClockMode, Progress, TrialReport, TrialSpec, run_trial};
 pub use world_file::WorldFile;

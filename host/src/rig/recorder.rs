@@ -113,6 +113,8 @@ pub struct Recorder {
     next_row: u64,
     rows: u64,
     index: u64,
+    /// Frame index of the last frame handed to the tracker (the gap scales its jump check).
+    last_tracked: Option<u64>,
     out: RecorderResult0,
 }
 
@@ -144,6 +146,7 @@ impl Recorder {
             next_row: 0,
             rows,
             index: 0,
+            last_tracked: None,
             out: RecorderResult0::default(),
         })
     }
@@ -327,7 +330,9 @@ impl Recorder {
         t_abs: u64,
         img: &GrayImage,
     ) -> Result<(), Error> {
-        let m = self.tracker.track(img)?;
+        let periods = self.last_tracked.map_or(1, |i| index.saturating_sub(i));
+        self.last_tracked = Some(index);
+        let m = self.tracker.track_after(img, u32::try_from(periods).unwrap_or(u32::MAX))?;
         let Some(pose) = m.pose else { return Ok(()) };
         let row = PoseRow {
             t_us: t_capture,

@@ -7,6 +7,7 @@
 use super::pty::PtyLine;
 use super::recorder::RecMsg;
 use super::session::HostSession;
+use super::faults::{FaultClasses, FaultCount};
 use super::world::RigWorld;
 use crate::Error;
 use crossbeam_channel::Sender;
@@ -51,6 +52,9 @@ pub struct SimLoop {
     logs: Vec<LogEvent>,
     scratch: Vec<u8>,
     node_events_seen: usize,
+    /// Camera faults the executor reported while stamping frames: frames missing from the
+    /// counter, and frames the camera delivered black.
+    camera_detected: u64,
     /// Records not yet handed to the recorder (see [`SimLoop::flush`]).
     pending: Vec<RecMsg>,
 }
@@ -114,6 +118,7 @@ impl SimLoop {
             logs: Vec::with_capacity(64),
             scratch: Vec::with_capacity(FRAME_BUF_LEN),
             node_events_seen: 0,
+            camera_detected: 0,
             pending: Vec::with_capacity(BATCH_RECORDS),
         })
     }
@@ -197,6 +202,10 @@ impl SimLoop {
         let mut stamped = None;
         for e in std::mem::take(&mut self.logs) {
             if let LogEvent::Frame(s) = e {
+                if let mesopush_executor::camera::SeqCheck::Gap { dropped } = s.seq {
+                    self.camera_detected += u64::from(dropped);
+                }
+                self.camera_detected += u64::from(s.black);
                 stamped = Some(s);
             }
             self.send(RecMsg::Log(now, e))?;
@@ -240,14 +249,18 @@ impl SimLoop {
     /// Faults the world injected so far (line faults, stage faults, camera drops and black
     /// frames).
     pub fn faults_injected(&self) -> u64 {
-        let lines: u64 = self
-            .lines
-            .iter()
-            .map(|l| {
-                let s = l.stats();
-                s.dropped + s.corrupted + s.duplicated + s.delayed
-            })
-            .sum();
+        self.fault_classes().total().injected
+    }
+
+    /// Faults by class: injected ones (every line, the stage, the camera), and the
+    /// detections the loop can see — the executor's controller-link counters and the camera
+    /// faults it reported while stamping frames. The controller's detections (trial faults)
+    /// are the recorder's; [`super::trial`] adds them.
+    pub fn fault_classes(&self) -> FaultClasses {
+        let line = |l: &SimLine| {
+            let s = l.stats();
+            s.dropped + s.corrupted + s.duplicated + s.delayed
+        };
         let stage = self
             .node
             .events
@@ -261,7 +274,23 @@ impl SimLoop {
                 )
             })
             .count() as u64;
-        lines + stage + self.camera.dropped + self.camera.black
+        let link = self.exec.ctrl_link().stats();
+        let seen = link.corrupt + link.duplicates + link.out_of_order + link.retransmissions;
+        FaultClasses {
+            camera: FaultCount {
+                injected: self.camera.dropped + self.camera.black,
+                detected: self.camera_detected,
+            },
+            controller: FaultCount { injected: stage, detected: 0 },
+            exec_ctrl_link: FaultCount {
+                injected: line(&self.lines[0]) + line(&self.lines[1]),
+                detected: seen,
+            },
+            host_exec_link: FaultCount {
+                injected: line(&self.lines[2]) + line(&self.lines[3]),
+                detected: 0,
+            },
+        }
     }
 }
 

@@ -3,6 +3,7 @@
 //! judges the verdict from the tracked poses. Simulated time is deterministic: the same seed
 //! gives a byte-identical trial directory.
 
+use super::faults::{FaultClasses, FaultCount};
 use super::recorder::{Recorder, RecorderResult, Schedule, Tracked, track_error};
 use super::session::{HostSession, SessionEnd, SessionGoal, plan_steps};
 use super::simloop::{CameraTiming, STEP_US, SimLoop};
@@ -68,6 +69,9 @@ pub struct TrialReport {
     pub faults_injected: u64,
     /// Faults the executor detected (trial faults).
     pub faults_detected: u64,
+    /// Faults injected and detected by class (simulated time; in real time only the
+    /// controller's detections are filled in). See [`super::faults`].
+    pub faults: FaultClasses,
     /// Recorder messages lost (real time only).
     pub records_lost: u64,
     /// Largest distance between tracked and true peg positions over unflagged frames, µm.
@@ -82,6 +86,12 @@ pub struct TrialReport {
     pub sim_time_s: f64,
     /// Wall-clock time, s.
     pub wall_time_s: f64,
+    /// Jam episodes in the world: the needle deflected beyond
+    /// [`super::world::NEEDLE_DEFLECTION_LIMIT_UM`] against a wedged peg (simulation only; logged as `jam`
+    /// events).
+    pub jams: u32,
+    /// Largest needle deflection seen at an exposure, µm (simulation only).
+    pub max_deflection_um: f64,
     /// Segments the controller applied.
     pub segments_applied: u64,
     /// Segments the plan consists of at the setpoint rate.
@@ -278,6 +288,7 @@ fn run_simulated(
     }
     let end = lp.host.end().cloned();
     let faults_injected = lp.faults_injected();
+    let mut classes = lp.fault_classes();
     let applied = lp.applied();
     let sim_time_s = lp.now_us as f64 * 1e-6;
     let world = lp.into_world(); // flushes, then closes the recorder's channel
@@ -295,7 +306,10 @@ fn run_simulated(
         sim_time_s,
         camera_latency_us: world.camera_latency_us(),
     };
-    finish(out_dir, recorded, world.truth(), world.fixture(), done)
+    let mut report = finish(out_dir, recorded, world.truth(), world.fixture(), done)?;
+    classes.controller.detected = report.faults_detected;
+    report.faults = classes;
+    Ok(report)
 }
 
 /// The loop's outcome, for [`finish`].
@@ -318,7 +332,7 @@ pub(crate) fn finish(
     fixture: &Fixture,
     done: Finished,
 ) -> Result<TrialReport, Error> {
-    write_truth(out_dir, truth, rec.t0_us.unwrap_or(0))?;
+    super::truth_log::write_truth(out_dir, truth, rec.t0_us.unwrap_or(0))?;
     // Judged on the peg at rest: the last unflagged frame exposed after the trial ended.
     // Earlier frames show it still moving; when every frame after the end is flagged (the
     // needle over the peg, say) there is nothing to judge on, and the report says so
@@ -347,6 +361,9 @@ pub(crate) fn finish(
         .map(|t| Pose::new(t.row.x_um, t.row.y_um, t.row.theta_rad))
         .collect();
     let mut writer = rec.writer;
+    let t0 = rec.t0_us.unwrap_or(0) as i64;
+    let jams = super::truth_log::write_jams(&mut writer, truth, t0)?;
+    let max_deflection_um = truth.iter().map(|s| s.deflection_um).fold(0.0, f64::max);
     let verdict = format!(
         "inserted={}; final_pose={final_pose:?}; track_error_um_max={err_um:.2} over {compared} frames",
         inserted.map_or("unknown".into(), |b| b.to_string())
@@ -364,6 +381,10 @@ pub(crate) fn finish(
         dropped_frames: rec.dropped_frames,
         faults_injected: done.faults_injected,
         faults_detected: rec.faults_detected,
+        faults: FaultClasses {
+            controller: FaultCount { injected: 0, detected: rec.faults_detected },
+            ..FaultClasses::default()
+        },
         records_lost: done.records_lost,
         track_error_um_max: err_um,
         track_error_rad_max: err_rad,
@@ -371,24 +392,11 @@ pub(crate) fn finish(
         true_final_pose: truth.last().map(|s| s.peg),
         sim_time_s: done.sim_time_s,
         wall_time_s: 0.0,
+        jams,
+        max_deflection_um,
         segments_applied: done.applied.0,
         segments_expected: done.segments_expected,
         segments_in_order: done.applied.1,
         tracked_poses,
     })
-}
-
-/// `truth.csv` (firmware simulator only; see docs/trial-log.md): the true peg pose and probe
-/// tip at every exposure, `t_us` since the trial's start like every other file.
-fn write_truth(dir: &Path, truth: &[TruthSample], t0_us: u64) -> Result<(), Error> {
-    let path = dir.join("truth.csv");
-    let mut text = String::from("t_us,x_um,y_um,theta_rad,probe_x_um,probe_y_um\n");
-    for s in truth {
-        let t = s.t_us as i64 - t0_us as i64;
-        text.push_str(&format!(
-            "{t},{},{},{},{},{}\n",
-            s.peg.x_um, s.peg.y_um, s.peg.theta_rad, s.probe_um.x, s.probe_um.y
-        ));
-    }
-    crate::trial::writer::write_atomic(&path, text.as_bytes())
 }

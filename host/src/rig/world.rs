@@ -18,6 +18,16 @@
 //! scale error lives in the renderer's calibration (`WorldFile::render_calibration`), the
 //! physical effects in the world's model. The probe speed the speed-friction effect needs is
 //! the stage's speed over each physics chord.
+//!
+//! Jams: when the simulator finds the peg wedged (no quasi-static solution), the probe tip
+//! stops where it is — against the peg — while the stage goes on; the 25 µm needle bends.
+//! Each later move re-attempts from the tip's actual position towards the new commanded
+//! position (once the command has moved a simulator step since the failed attempt), so the
+//! tip follows again as soon as the command pulls away. The needle's deflection (commanded
+//! tip − actual tip) is recorded at every exposure; when it exceeds
+//! [`NEEDLE_DEFLECTION_LIMIT_UM`] the world logs a [`JamEvent`] (one per episode: the episode
+//! ends when the deflection falls below half the limit), which the trial records and the
+//! verdict names. The camera renders the tip where it actually is.
 
 use crate::Error;
 use crate::effects::{Backlash, Effects, stamp_with_latency_us};
@@ -36,8 +46,32 @@ pub struct TruthSample {
     pub t_us: u64,
     /// The peg's true pose.
     pub peg: Pose,
-    /// The probe tip's true position (after backlash), fixture frame µm.
+    /// The probe tip's true position (after backlash, held back by the peg when the peg
+    /// wedged), fixture frame µm.
     pub probe_um: Vec2,
+    /// The needle's deflection: distance from the commanded tip (the stage after backlash)
+    /// to the actual tip, µm (0 unless the peg wedged).
+    pub deflection_um: f64,
+    /// Jam episodes begun so far (see [`JamEvent`]).
+    pub jams: u32,
+}
+
+/// Needle deflection beyond which the world logs a jam, µm. A 25 µm tungsten tip bends
+/// elastically by a few tip diameters; beyond about 50 µm it would slip over the peg (which
+/// is only half the fixture's depth) or the stage would stall on the force, so the push no
+/// longer does what the plan means. The world (a simulator) cannot model either; it records
+/// the episode so the trial's verdict says why the peg did not go in.
+pub const NEEDLE_DEFLECTION_LIMIT_UM: f64 = 50.0;
+
+/// One jam episode: the needle deflected beyond [`NEEDLE_DEFLECTION_LIMIT_UM`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JamEvent {
+    /// When the deflection first exceeded the limit, µs (simulation clock).
+    pub t_us: u64,
+    /// Largest deflection during the episode, µm.
+    pub peak_deflection_um: f64,
+    /// The peg's pose when the episode began.
+    pub peg: Pose,
 }
 
 /// A rendered frame.
@@ -82,7 +116,15 @@ pub struct RigWorld {
     next_exposure_us: u64,
     period_us: u64,
     truth: Vec<TruthSample>,
-    jams: u64,
+    jam_events: Vec<JamEvent>,
+    /// In a jam episode (deflection above the limit, not yet below half of it).
+    in_jam: bool,
+    /// The commanded tip of the last attempt the peg blocked (re-attempted once the command
+    /// has moved a simulator step from it).
+    blocked_at: Option<Vec2>,
+    /// Commanded tip of the last move (after backlash).
+    commanded_um: Vec2,
+    max_deflection_um: f64,
     backlash: Backlash,
     latency_us: f64,
     /// Time and stage position of the last physics advance (for the probe speed).
@@ -115,7 +157,11 @@ impl RigWorld {
             next_exposure_us: setup.camera_start_us,
             period_us: setup.camera_period_us.max(1),
             truth: Vec::new(),
-            jams: 0,
+            jam_events: Vec::new(),
+            in_jam: false,
+            blocked_at: None,
+            commanded_um: probe_start_um,
+            max_deflection_um: 0.0,
             backlash: Backlash::new(setup.effects.backlash_um),
             latency_us: setup.effects.camera_latency_us,
             last_advance: None,
@@ -127,9 +173,19 @@ impl RigWorld {
         &self.truth
     }
 
-    /// Times the peg wedged (the probe could not advance the physics).
-    pub fn jams(&self) -> u64 {
-        self.jams
+    /// Jam episodes so far (needle deflection beyond [`NEEDLE_DEFLECTION_LIMIT_UM`]).
+    pub fn jam_events(&self) -> &[JamEvent] {
+        &self.jam_events
+    }
+
+    /// Largest needle deflection so far, µm.
+    pub fn max_deflection_um(&self) -> f64 {
+        self.max_deflection_um
+    }
+
+    /// The needle's current deflection, µm.
+    fn deflection_um(&self) -> f64 {
+        (self.commanded_um - self.st.probe_um).norm()
     }
 
     /// The peg's current pose.
@@ -167,8 +223,8 @@ impl RigWorld {
     }
 
     /// Moves the stage to `stage_um` at `t_us`: the tip follows through the backlash and
-    /// the physics advances to it.
-    fn move_stage_to(&mut self, t_us: u64, stage_um: Vec2) -> Vec2 {
+    /// the physics advances to it (or as far as the peg lets it).
+    fn move_stage_to(&mut self, t_us: u64, stage_um: Vec2) {
         let tip = self.backlash.update(stage_um);
         if let Some((t0, p0)) = self.last_advance
             && t_us > t0
@@ -178,20 +234,42 @@ impl RigWorld {
         }
         self.last_advance = Some((t_us, stage_um));
         self.move_probe_to(tip);
-        tip
+        self.note_deflection(t_us);
     }
 
+    /// Advances the physics with the commanded tip at `target_um`. When the peg wedged, the
+    /// tip stays where it stopped (the needle bends, the stage goes on); the same attempt is
+    /// not repeated until the command has moved a step from the blocked one.
     fn move_probe_to(&mut self, target_um: Vec2) {
+        self.commanded_um = target_um;
         let delta = target_um - self.st.probe_um;
         if delta.norm() < 1e-9 {
+            self.blocked_at = None;
+            return;
+        }
+        let step_um = self.sim.settings().step_um;
+        if self.blocked_at.is_some_and(|b| (target_um - b).norm() < step_um) {
             return;
         }
         let mut budget = ADVANCE_BUDGET;
         match advance(&mut self.sim, &mut self.st, delta, &mut budget, |_, _, _| {}) {
-            Ok(SegmentEnd::Reached) => {}
-            // The probe stops where the peg wedged; the next move starts from there (the
-            // needle bends, the stage goes on).
-            Ok(SegmentEnd::Jammed { .. }) | Err(_) => self.jams += 1,
+            Ok(SegmentEnd::Reached) => self.blocked_at = None,
+            Ok(SegmentEnd::Jammed { .. }) | Err(_) => self.blocked_at = Some(target_um),
+        }
+    }
+
+    /// Tracks the needle's deflection and the jam episodes.
+    fn note_deflection(&mut self, t_us: u64) {
+        let d = self.deflection_um();
+        self.max_deflection_um = self.max_deflection_um.max(d);
+        if self.in_jam {
+            if let Some(e) = self.jam_events.last_mut() {
+                e.peak_deflection_um = e.peak_deflection_um.max(d);
+            }
+            self.in_jam = d >= 0.5 * NEEDLE_DEFLECTION_LIMIT_UM;
+        } else if d > NEEDLE_DEFLECTION_LIMIT_UM {
+            self.in_jam = true;
+            self.jam_events.push(JamEvent { t_us, peak_deflection_um: d, peg: self.st.peg });
         }
     }
 }
@@ -210,14 +288,22 @@ impl World for RigWorld {
                 1.0
             };
             let pe = p0 + (target - p0) * f;
-            let tip = self.move_stage_to(te, pe);
-            self.truth.push(TruthSample { t_us: te, peg: self.st.peg, probe_um: tip });
+            self.move_stage_to(te, pe);
+            self.truth.push(TruthSample {
+                t_us: te,
+                peg: self.st.peg,
+                probe_um: self.st.probe_um,
+                deflection_um: self.deflection_um(),
+                jams: self.jam_events.len() as u32,
+            });
             self.next_exposure_us += self.period_us;
         }
         // The backlash sees every stage position (a reversal inside a chord counts).
         let tip = self.backlash.update(target);
         if (tip - self.st.probe_um).norm() >= self.sim.settings().step_um {
             self.move_stage_to(sim_time_us, target);
+        } else {
+            self.commanded_um = tip;
         }
         self.last = Some((sim_time_us, target));
         let p = self.st.peg;
@@ -230,6 +316,8 @@ impl World for RigWorld {
             t_us: sim_time_us,
             peg: self.st.peg,
             probe_um: self.st.probe_um,
+            deflection_um: self.deflection_um(),
+            jams: self.jam_events.len() as u32,
         });
         let walls = &self.sim.fixture().walls;
         let scene = Scene {

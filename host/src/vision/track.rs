@@ -2,8 +2,17 @@
 //! probe by its geometry (locating its tip), then the peg's centroid and orientation from the
 //! second moments of the remaining blob, weighted by partial pixel coverage. Every result
 //! carries a confidence and flags; a sequence keeps its orientation continuous.
+//!
+//! In a sequence, each frame is compared with the last *trusted* pose: the last frame that
+//! was unflagged, or flagged only as a jump (a clean view of a peg that moved further than
+//! expected: the tracker reacquires it). Frames flagged for anything else (needle over the
+//! peg, a wall, the border) are not trusted and do not move the reference, and the jump
+//! tolerance grows with the frame periods since the trusted pose (`max_step_um` per
+//! period), so a stretch of flagged or dropped frames during which the peg moved on does not
+//! flag the good frames after it.
 
 use image::GrayImage;
+use std::f64::consts::FRAC_PI_2;
 
 use crate::Error;
 use crate::geom::{ConvexPolygon, Pose, Vec2};
@@ -39,9 +48,11 @@ pub struct TrackSettings {
     pub moment_tolerance: f64,
     /// Below this shape confidence the frame is flagged `shape_mismatch` (default 0.3).
     pub min_confidence: f64,
-    /// Largest plausible move between consecutive frames in a sequence, µm (default 400).
+    /// Largest plausible move per frame period in a sequence, µm (default 400); the
+    /// tolerance against the last trusted pose is this times the periods since it.
     pub max_step_um: f64,
-    /// Largest plausible turn between consecutive frames in a sequence, rad (default 0.35).
+    /// Largest plausible turn per frame period in a sequence, rad (default 0.35); scaled
+    /// likewise.
     pub max_step_rad: f64,
     /// Orientation the first frame of a sequence is taken to be near, rad (default 0).
     pub theta_hint_rad: f64,
@@ -66,7 +77,7 @@ impl Default for TrackSettings {
 }
 
 /// Measures frames against one background. Reuse it: it keeps scratch buffers and, for
-/// [`Tracker::track`], the last good pose.
+/// [`Tracker::track`], the last trusted pose.
 #[derive(Debug, Clone)]
 pub struct Tracker {
     settings: TrackSettings,
@@ -74,7 +85,8 @@ pub struct Tracker {
     expected: Moments,
     body_axis_rad: f64,
     buf: Buffers,
-    prev: Option<Pose>,
+    /// The last trusted pose of the sequence and the frame periods since it.
+    trusted: Option<(Pose, u32)>,
 }
 
 /// Working images reused from frame to frame (a frame allocates nothing large).
@@ -100,7 +112,7 @@ impl Tracker {
         let bg = Background::new(background)?;
         let expected = polygon_moments(&settings.peg);
         let body_axis_rad = expected.major_axis_angle();
-        Ok(Self { settings, bg, expected, body_axis_rad, buf: Buffers::default(), prev: None })
+        Ok(Self { settings, bg, expected, body_axis_rad, buf: Buffers::default(), trusted: None })
     }
 
     /// The settings in use.
@@ -110,7 +122,7 @@ impl Tracker {
 
     /// Forgets the sequence: the next [`Tracker::track`] starts from the θ hint again.
     pub fn reset(&mut self) {
-        self.prev = None;
+        self.trusted = None;
     }
 
     /// Measures one frame on its own: θ is given on the branch nearest the θ hint.
@@ -119,21 +131,35 @@ impl Tracker {
         self.measure_near(frame, hint)
     }
 
-    /// Measures the next frame of a sequence: θ continues from the last good frame, and a
-    /// pose that jumps further than a push can move the peg in one frame is flagged.
+    /// Measures the next frame of a sequence, one frame period after the previous one:
+    /// θ continues from the last trusted frame, and a pose further from it than a push can
+    /// move the peg in the time since is flagged [`Flag::Jump`].
     pub fn track(&mut self, frame: &GrayImage) -> Result<Measurement, Error> {
-        let reference = self.prev.map_or(self.settings.theta_hint_rad, |p| p.theta_rad);
+        self.track_after(frame, 1)
+    }
+
+    /// [`Tracker::track`] for a frame `periods` frame periods after the previous one (the
+    /// frames between were dropped or not tracked; 0 counts as 1).
+    pub fn track_after(&mut self, frame: &GrayImage, periods: u32) -> Result<Measurement, Error> {
+        if let Some((_, n)) = self.trusted.as_mut() {
+            *n = n.saturating_add(periods.max(1));
+        }
+        let reference = self.trusted.map_or(self.settings.theta_hint_rad, |(p, _)| p.theta_rad);
         let mut m = self.measure_near(frame, reference)?;
-        if let (Some(pose), Some(prev)) = (m.pose, self.prev) {
-            if is_jump(&pose, &prev, self.settings.max_step_um, self.settings.max_step_rad) {
+        if let (Some(pose), Some((trusted, n))) = (m.pose, self.trusted) {
+            let k = f64::from(n);
+            let (max_um, max_rad) = (self.settings.max_step_um, self.settings.max_step_rad);
+            if is_jump(&pose, &trusted, k * max_um, (k * max_rad).min(FRAC_PI_2)) {
                 m.flags.push(Flag::Jump);
                 m.confidence = m.confidence.min(FLAGGED_CONFIDENCE_CAP);
             }
         }
-        // A frame whose only fault is the jump is still a good view: follow it, so one real
-        // jump flags one frame, not the rest of the sequence.
-        if m.pose.is_some() && m.flags.iter().all(|f| *f == Flag::Jump) {
-            self.prev = m.pose;
+        // A frame whose only fault is the jump is still a good view: reacquire it, so one
+        // real jump flags one frame, not the rest of the sequence.
+        if let Some(pose) = m.pose
+            && m.flags.iter().all(|f| *f == Flag::Jump)
+        {
+            self.trusted = Some((pose, 0));
         }
         Ok(m)
     }
