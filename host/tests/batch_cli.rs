@@ -103,4 +103,35 @@ fn shards_run_as_processes_merge_and_match_the_whole_batch() {
     let r = json(&mesopush(&["batch", "report", "--json", merged.to_str().unwrap()]));
     assert_eq!(r["figures"].as_array().map(Vec::len), Some(3));
     assert!(merged.join("report/report.md").exists());
+    json(&mesopush(&["batch", "report", "--json", whole.to_str().unwrap()]));
+    assert_bit_identical(&whole, &merged);
+}
+
+/// Every per-trial figure of the merged shards equals the one-process batch's, digit for
+/// digit (wall times and directories aside), and so do the trial logs' poses.
+fn assert_bit_identical(whole: &Path, merged: &Path) {
+    let rows = |dir: &Path| {
+        let mut r = csv::Reader::from_path(dir.join("report/trials.csv")).unwrap();
+        let head = r.headers().unwrap().clone();
+        let keep: Vec<usize> =
+            (0..head.len()).filter(|&i| !matches!(&head[i], "wall_time_s" | "dir")).collect();
+        let dirs: Vec<String> = r
+            .records()
+            .map(|x| x.unwrap())
+            .map(|rec| {
+                let cells: Vec<&str> = keep.iter().map(|&i| &rec[i]).collect();
+                format!("{}\t{}", cells.join(","), &rec[head.iter().position(|h| h == "dir").unwrap()])
+            })
+            .collect();
+        dirs
+    };
+    let (a, b) = (rows(whole), rows(merged));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        let (xa, xdir) = x.split_once('\t').unwrap();
+        let (ya, ydir) = y.split_once('\t').unwrap();
+        assert_eq!(xa, ya, "trials.csv rows differ between one process and merged shards");
+        let pose = |base: &Path, d: &str| std::fs::read(base.join(d).join("pose.csv")).ok();
+        assert_eq!(pose(whole, xdir), pose(merged, ydir), "pose.csv of {xdir} differs");
+    }
 }

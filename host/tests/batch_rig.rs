@@ -11,7 +11,9 @@ use mesopush_host::batch::stats::{Loaded, summarize};
 use mesopush_host::batch::{
     BatchConfig, BatchSpec, Shard, Verdict, merge, report, run, runner_factory,
 };
-use mesopush_host::geom::Vec2;
+use mesopush_host::batch::TrialResult;
+use mesopush_host::geom::{Pose, Vec2};
+use mesopush_host::rig::world::NEEDLE_DEFLECTION_LIMIT_UM;
 use mesopush_host::sim::Fixture;
 use mesopush_host::trial::Trial;
 use std::path::{Path, PathBuf};
@@ -38,6 +40,32 @@ fn run_shards(spec: &BatchSpec, base: &Path, out: &Path) -> Vec<PathBuf> {
         }
     });
     dirs
+}
+
+/// truth.csv rows: t_us, x, y, θ, probe x, probe y, needle deflection.
+fn truth_rows(dir: &Path) -> Vec<Vec<f64>> {
+    let truth = std::fs::read_to_string(dir.join("truth.csv")).unwrap();
+    truth.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect()
+}
+
+/// The world is physical: the true probe tip (which the camera renders) never lies inside
+/// the peg — a wedged peg holds the tip back and the needle bends — and a deflection past
+/// the limit is logged as a `jam` event that a miss's reason names.
+fn check_jams(ctx: &str, t: &Trial, dir: &Path, r: &TrialResult) -> bool {
+    let outline = t.meta.part.polygon().clone();
+    let rows = truth_rows(dir);
+    for row in &rows {
+        let peg = outline.transformed(&Pose::new(row[1], row[2], row[3]));
+        let depth = peg.signed_distance(&Vec2::new(row[4], row[5]));
+        assert!(depth > -1.0, "{ctx}: probe tip {depth:.1} µm inside the peg at t = {}", row[0]);
+    }
+    let over = rows.iter().any(|row| row[6] > NEEDLE_DEFLECTION_LIMIT_UM);
+    let logged = t.events.iter().any(|e| e.kind == "jam");
+    assert!(!over || logged, "{ctx}: the needle bent past the limit and no jam was logged");
+    if logged && r.verdict == Verdict::Missed {
+        assert!(r.reason.contains("jammed"), "{ctx}: a miss after a jam must say so");
+    }
+    logged
 }
 
 /// The truth's last pose inside the channel?
@@ -75,7 +103,7 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
     assert_eq!((s.records_lost, s.errors, s.timeouts), (0, 0, 0), "seed {seed}");
     assert!(s.faults_injected > 1000, "seed {seed}: link faults are injected on every line");
     assert!(s.faulted >= 5, "seed {seed}: controller faults at these rates fault some trials");
-    let (mut judged, mut unjudged) = (0, 0);
+    let (mut judged, mut unjudged, mut jammed) = (0, 0, 0);
     for a in loaded.finals().values() {
         let r = &a.result;
         let ctx = format!("seed {seed}, {} attempt {}: {r:?}", a.trial_id, a.attempt);
@@ -97,6 +125,9 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
         if r.verdict == Verdict::Faulted {
             assert!(t.events.iter().any(|e| e.kind == "fault"), "{ctx}: no fault event");
         }
+        if dir.join("truth.csv").exists() {
+            jammed += u32::from(check_jams(&ctx, &t, &dir, r));
+        }
         if r.reason.contains("cannot judge") {
             unjudged += 1;
         } else if matches!(r.verdict, Verdict::Inserted | Verdict::Missed) {
@@ -109,7 +140,7 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
         }
     }
     println!(
-        "seed {seed}: {judged} judged, {unjudged} not judgeable (no clean frame after the end)"
+        "seed {seed}: {judged} judged, {unjudged} not judgeable (no clean frame after the end), {jammed} with a jam"
     );
     assert!(judged >= 150, "seed {seed}: only {judged} trials ran to a verdict");
     assert!(s.succeeded as f64 >= 0.8 * judged as f64, "seed {seed}: {} of {judged}", s.succeeded);

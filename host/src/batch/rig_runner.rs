@@ -86,7 +86,7 @@ fn verdict(r: &TrialReport) -> (Verdict, String) {
             (Verdict::Missed, "missed, no tracked final pose: cannot judge".into())
         }
         (TrialState::Done, Some(j)) if r.inserted.is_none() => {
-            (Verdict::Missed, format!("missed, jammed: {j}; no tracked final pose"))
+            (Verdict::Missed, format!("missed, jammed: {j}; no tracked final pose: cannot judge"))
         }
         (TrialState::Done, None) => {
             (Verdict::Missed, "missed: last tracked pose outside the channel".into())

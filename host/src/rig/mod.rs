@@ -5,7 +5,7 @@
 //! recorder writes the trial directory, the host tracks the frames and judges the result.
 //!
 //! - [`world_file`]: the world file (`worlds/*.toml`); [`world`]: the `World` the firmware
-//!   simulator asks for poses and frames.
+//!   simulator asks for poses and frames; [`needle`]: where the needle's tip rests.
 //! - [`session`]: the host's side of the executor line (flash, arm, start, wait).
 //! - [`pty`]: the lock-stepped pseudo-terminal; [`simloop`]: the loop in simulated time;
 //!   [`realtime`]: the same parts on threads in real time.
@@ -21,6 +21,7 @@ pub mod figure;
 pub mod fwsim;
 pub mod hil;
 pub mod hostlink;
+pub mod needle;
 pub mod pty;
 pub mod realtime;
 pub mod recorder;

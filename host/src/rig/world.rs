@@ -19,18 +19,23 @@
 //! physical effects in the world's model. The probe speed the speed-friction effect needs is
 //! the stage's speed over each physics chord.
 //!
-//! Jams: when the simulator finds the peg wedged (no quasi-static solution), the probe tip
-//! stops where it is — against the peg — while the stage goes on; the 25 µm needle bends.
+//! The needle: the simulator's probe point is the needle's undeflected position (its
+//! compliance lets it press into a peg that resists); the tip itself rests against the peg,
+//! so the world puts it there — the probe point drawn back along the push until it touches
+//! the peg's outline ([`super::needle::resting_tip`]) — and the camera renders it there, never over the peg.
+//! Jams: when the simulator finds the peg wedged (no quasi-static solution), the probe point
+//! stops where it is while the stage goes on; the 25 µm needle bends.
 //! Each later move re-attempts from the tip's actual position towards the new commanded
 //! position (once the command has moved a simulator step since the failed attempt), so the
 //! tip follows again as soon as the command pulls away. The needle's deflection (commanded
-//! tip − actual tip) is recorded at every exposure; when it exceeds
+//! tip − resting tip) is recorded at every exposure; when it exceeds
 //! [`NEEDLE_DEFLECTION_LIMIT_UM`] the world logs a [`JamEvent`] (one per episode: the episode
 //! ends when the deflection falls below half the limit), which the trial records and the
 //! verdict names. The camera renders the tip where it actually is.
 
 use crate::Error;
 use crate::effects::{Backlash, Effects, stamp_with_latency_us};
+use super::needle::resting_tip;
 use crate::geom::{ConvexPolygon, Pose, Vec2};
 use crate::sim::advance::{SegmentEnd, advance};
 use crate::sim::{Fixture, SimSettings, SimState, Simulator};
@@ -129,6 +134,9 @@ pub struct RigWorld {
     latency_us: f64,
     /// Time and stage position of the last physics advance (for the probe speed).
     last_advance: Option<(u64, Vec2)>,
+    probe_radius_um: f64,
+    /// Direction of the last probe move (the needle bends back along it).
+    push_dir: Vec2,
 }
 
 /// Step budget per physics advance (a bounded loop).
@@ -141,6 +149,7 @@ impl RigWorld {
         let fixture = Fixture::paper();
         let renderer = Renderer::new(setup.render.clone(), &fixture.walls)?;
         let peg_body = setup.model.part.polygon().clone();
+        let probe_radius_um = setup.model.probe_radius_um;
         let sim = Simulator::new(setup.model, fixture, SimSettings::default())?;
         let st = SimState { peg: setup.peg_start, probe_um: probe_start_um };
         if sim.probe_gap_um(&st) < 0.0 {
@@ -165,6 +174,8 @@ impl RigWorld {
             backlash: Backlash::new(setup.effects.backlash_um),
             latency_us: setup.effects.camera_latency_us,
             last_advance: None,
+            probe_radius_um,
+            push_dir: Vec2::new(0.0, 0.0),
         })
     }
 
@@ -183,9 +194,15 @@ impl RigWorld {
         self.max_deflection_um
     }
 
-    /// The needle's current deflection, µm.
+    /// Where the needle's tip is: resting against the peg (see [`super::needle::resting_tip`]).
+    fn tip_um(&self) -> Vec2 {
+        let peg = self.peg_body.transformed(&self.st.peg);
+        resting_tip(&peg, self.st.probe_um, self.probe_radius_um, -self.push_dir)
+    }
+
+    /// The needle's current deflection (commanded tip − resting tip), µm.
     fn deflection_um(&self) -> f64 {
-        (self.commanded_um - self.st.probe_um).norm()
+        (self.commanded_um - self.tip_um()).norm()
     }
 
     /// The peg's current pose.
@@ -247,6 +264,7 @@ impl RigWorld {
             self.blocked_at = None;
             return;
         }
+        self.push_dir = delta / delta.norm();
         let step_um = self.sim.settings().step_um;
         if self.blocked_at.is_some_and(|b| (target_um - b).norm() < step_um) {
             return;
@@ -292,7 +310,7 @@ impl World for RigWorld {
             self.truth.push(TruthSample {
                 t_us: te,
                 peg: self.st.peg,
-                probe_um: self.st.probe_um,
+                probe_um: self.tip_um(),
                 deflection_um: self.deflection_um(),
                 jams: self.jam_events.len() as u32,
             });
@@ -315,7 +333,7 @@ impl World for RigWorld {
         let truth = self.truth.get(i).or(self.truth.last()).copied().unwrap_or(TruthSample {
             t_us: sim_time_us,
             peg: self.st.peg,
-            probe_um: self.st.probe_um,
+            probe_um: self.tip_um(),
             deflection_um: self.deflection_um(),
             jams: self.jam_events.len() as u32,
         });
