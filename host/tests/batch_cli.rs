@@ -120,7 +120,11 @@ fn assert_bit_identical(whole: &Path, merged: &Path) {
             .map(|x| x.unwrap())
             .map(|rec| {
                 let cells: Vec<&str> = keep.iter().map(|&i| &rec[i]).collect();
-                format!("{}\t{}", cells.join(","), &rec[head.iter().position(|h| h == "dir").unwrap()])
+                format!(
+                    "{}\t{}",
+                    cells.join(","),
+                    &rec[head.iter().position(|h| h == "dir").unwrap()]
+                )
             })
             .collect();
         dirs

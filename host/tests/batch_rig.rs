@@ -7,11 +7,11 @@
 //! success, every faulted trial logs its fault, and every judged trial's verdict agrees with
 //! the truth the tracker never saw.
 
+use mesopush_host::batch::TrialResult;
 use mesopush_host::batch::stats::{Loaded, summarize};
 use mesopush_host::batch::{
     BatchConfig, BatchSpec, Shard, Verdict, merge, report, run, runner_factory,
 };
-use mesopush_host::batch::TrialResult;
 use mesopush_host::geom::{Pose, Vec2};
 use mesopush_host::rig::world::NEEDLE_DEFLECTION_LIMIT_UM;
 use mesopush_host::sim::Fixture;

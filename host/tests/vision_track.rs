@@ -223,7 +223,8 @@ fn good_frames_after_a_stretch_of_flagged_frames_are_not_flagged_as_jumps() {
 fn a_real_jump_flags_one_frame_and_is_reacquired() {
     let mut rig = Rig::default();
     let y = 1260.0;
-    for (k, x, jump) in [(0, 1000.0, false), (1, 1050.0, false), (2, 1600.0, true), (3, 1620.0, false)]
+    for (k, x, jump) in
+        [(0, 1000.0, false), (1, 1050.0, false), (2, 1600.0, true), (3, 1620.0, false)]
     {
         let img = rig.frame(Pose::new(x, y, 0.1), None);
         let m = rig.tracker.track(&img).unwrap();

@@ -4,10 +4,10 @@
 //! stamps → recorder. Every line passes a seeded [`SimLine`] that injects the world file's
 //! faults on the way; one seed drives everything, so the same seed gives the same run.
 
+use super::faults::{FaultClasses, FaultCount};
 use super::pty::PtyLine;
 use super::recorder::RecMsg;
 use super::session::HostSession;
-use super::faults::{FaultClasses, FaultCount};
 use super::world::RigWorld;
 use crate::Error;
 use crossbeam_channel::Sender;

@@ -11,8 +11,7 @@ use std::path::Path;
 /// tip at every exposure, `t_us` since the trial's start like every other file.
 pub(crate) fn write_truth(dir: &Path, truth: &[TruthSample], t0_us: u64) -> Result<(), Error> {
     let path = dir.join("truth.csv");
-    let mut text =
-        String::from("t_us,x_um,y_um,theta_rad,probe_x_um,probe_y_um,deflection_um\n");
+    let mut text = String::from("t_us,x_um,y_um,theta_rad,probe_x_um,probe_y_um,deflection_um\n");
     for s in truth {
         let t = s.t_us as i64 - t0_us as i64;
         text.push_str(&format!(

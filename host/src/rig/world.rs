@@ -21,8 +21,9 @@
 //!
 //! The needle: the simulator's probe point is the needle's undeflected position (its
 //! compliance lets it press into a peg that resists); the tip itself rests against the peg,
-//! so the world puts it there — the probe point drawn back along the push until it touches
-//! the peg's outline ([`super::needle::resting_tip`]) — and the camera renders it there, never over the peg.
+//! so the world puts it there — on the edge it met, the probe point moved out along that
+//! edge's normal until it touches ([`super::needle::resting_tip`]) — and the camera renders
+//! it there, never over the peg.
 //! Jams: when the simulator finds the peg wedged (no quasi-static solution), the probe point
 //! stops where it is while the stage goes on; the 25 µm needle bends.
 //! Each later move re-attempts from the tip's actual position towards the new commanded
@@ -33,9 +34,9 @@
 //! ends when the deflection falls below half the limit), which the trial records and the
 //! verdict names. The camera renders the tip where it actually is.
 
+use super::needle::{contact_edge, resting_tip};
 use crate::Error;
 use crate::effects::{Backlash, Effects, stamp_with_latency_us};
-use super::needle::resting_tip;
 use crate::geom::{ConvexPolygon, Pose, Vec2};
 use crate::sim::advance::{SegmentEnd, advance};
 use crate::sim::{Fixture, SimSettings, SimState, Simulator};
@@ -135,8 +136,8 @@ pub struct RigWorld {
     /// Time and stage position of the last physics advance (for the probe speed).
     last_advance: Option<(u64, Vec2)>,
     probe_radius_um: f64,
-    /// Direction of the last probe move (the needle bends back along it).
-    push_dir: Vec2,
+    /// The peg edge the probe met, while in contact (the tip rests on it).
+    contact_edge: Option<usize>,
 }
 
 /// Step budget per physics advance (a bounded loop).
@@ -175,7 +176,7 @@ impl RigWorld {
             latency_us: setup.effects.camera_latency_us,
             last_advance: None,
             probe_radius_um,
-            push_dir: Vec2::new(0.0, 0.0),
+            contact_edge: None,
         })
     }
 
@@ -197,7 +198,7 @@ impl RigWorld {
     /// Where the needle's tip is: resting against the peg (see [`super::needle::resting_tip`]).
     fn tip_um(&self) -> Vec2 {
         let peg = self.peg_body.transformed(&self.st.peg);
-        resting_tip(&peg, self.st.probe_um, self.probe_radius_um, -self.push_dir)
+        resting_tip(&peg, self.st.probe_um, self.probe_radius_um, self.contact_edge)
     }
 
     /// The needle's current deflection (commanded tip − resting tip), µm.
@@ -264,7 +265,6 @@ impl RigWorld {
             self.blocked_at = None;
             return;
         }
-        self.push_dir = delta / delta.norm();
         let step_um = self.sim.settings().step_um;
         if self.blocked_at.is_some_and(|b| (target_um - b).norm() < step_um) {
             return;
@@ -273,6 +273,14 @@ impl RigWorld {
         match advance(&mut self.sim, &mut self.st, delta, &mut budget, |_, _, _| {}) {
             Ok(SegmentEnd::Reached) => self.blocked_at = None,
             Ok(SegmentEnd::Jammed { .. }) | Err(_) => self.blocked_at = Some(target_um),
+        }
+        // the edge the tip met stays its edge until the probe leaves the peg
+        let peg = self.peg_body.transformed(&self.st.peg);
+        match contact_edge(&peg, self.st.probe_um, self.probe_radius_um) {
+            None => self.contact_edge = None,
+            Some(e) => {
+                self.contact_edge.get_or_insert(e);
+            }
         }
     }
 
