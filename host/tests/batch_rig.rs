@@ -103,6 +103,15 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
     assert_eq!((s.records_lost, s.errors, s.timeouts), (0, 0, 0), "seed {seed}");
     assert!(s.faults_injected > 1000, "seed {seed}: link faults are injected on every line");
     assert!(s.faulted >= 5, "seed {seed}: controller faults at these rates fault some trials");
+    // Faults by class add up to the totals, and the system sees what is injected: the
+    // camera's faults but a run's last frame, the controller's but those outside a trial.
+    let c = &s.faults_by_class;
+    println!("seed {seed}: faults by class (injected / detected): {c:?}");
+    let total = c.total();
+    assert_eq!((total.injected, total.detected), (s.faults_injected, s.faults_detected));
+    assert!(c.camera.detected * 10 >= c.camera.injected * 9, "seed {seed}: {c:?}");
+    assert!(c.controller.detected * 10 >= c.controller.injected * 9, "seed {seed}: {c:?}");
+    assert!(c.exec_ctrl_link.detected > 0 && c.host_exec_link.injected > 0, "seed {seed}");
     let (mut judged, mut unjudged, mut jammed) = (0, 0, 0);
     for a in loaded.finals().values() {
         let r = &a.result;
