@@ -12,7 +12,9 @@
 //! in-memory line and the controller thread's own wake-up added). The *margin* is how long
 //! before its start a move arrived (an underrun below the executor's `underrun_margin_us`).
 //! `--hog` adds one busy-looping thread, pinned to the other CPU when the shell is pinned
-//! (`--pin-cpu`), else free.
+//! (`--pin-cpu`), else free. With `--rt-priority N` the shell loop runs at `SCHED_FIFO` N
+//! and the in-process controller (standing for a separate microcontroller) at N − 1; the
+//! host thread and the hog keep the normal scheduler.
 
 use std::prelude::rust_2024::*;
 pub mod ctrl;
@@ -138,7 +140,13 @@ pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
     let expected = (opts.seconds * f64::from(opts.rate_hz)) as usize;
     let ctrl = ctrl::BenchCtrl::new((0, 0), expected);
     let (c2, s2) = (clock.clone(), stop.clone());
-    let ctrl_thread = std::thread::spawn(move || ctrl.serve(c2, c_out_rx, c_in_tx, s2));
+    // The controller stands for a separate microcontroller: with --rt-priority it runs one
+    // below the shell (unpinned), so a loaded host does not starve its replies and reports.
+    let ctrl_prio = opts.rt.fifo_priority.map(|p| (p - 1).max(1));
+    let ctrl_thread = std::thread::spawn(move || {
+        let refused = apply(&RtOptions { fifo_priority: ctrl_prio, ..RtOptions::default() });
+        (ctrl.serve(c2, c_out_rx, c_in_tx, s2), refused)
+    });
     let hog_cpu = opts.rt.pin_cpu.map(|c| if c == 0 { 1 } else { 0 });
     let hog = opts.hog.then(|| {
         let s = stop.clone();
@@ -173,7 +181,8 @@ pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
     Shell::run_with(&mut endpoint, &*clock, lines, log_tx, stop_rx, shell_opts, &mut stats);
     stop.store(true, Ordering::Relaxed);
     let end = host_thread.join().map_err(|_| io::Error::other("host thread panicked"))?;
-    let ctrl = ctrl_thread.join().map_err(|_| io::Error::other("controller thread panicked"))?;
+    let (ctrl, ctrl_rt) =
+        ctrl_thread.join().map_err(|_| io::Error::other("controller thread panicked"))?;
     if let Some(h) = hog {
         let _ = h.join();
     }
@@ -182,6 +191,8 @@ pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
         let last = ctrl.arrivals.last().map(|a| a.segment_id);
         io::Error::other(format!("{e} ({} moves received, last {last:?})", ctrl.arrivals.len()))
     })?;
+    let mut rt = rt;
+    rt.refused.extend(ctrl_rt.refused.into_iter().map(|r| format!("bench controller: {r}")));
     let mut r = report(opts, &config, &ctrl.arrivals, &stats, rt)?;
     r.trial_end = match end {
         ExecToHost::Trial(t) if t.kind == TrialEventKind::Done => "done".into(),
