@@ -47,12 +47,14 @@ pub struct ExecutorConfig {
     /// controller's queue is about to run dry: the trial faults with `StreamUnderrun`, µs.
     /// Default 2 ms.
     pub underrun_margin_us: u64,
-    /// Most segments the executor keeps in flight (sent, not reported done); also capped by
-    /// the look-ahead queue's capacity and the controller's reported free slots. Default 16
-    /// (160 ms at 100 Hz): in the seeded full-loop simulation with 2 % of frames dropped,
-    /// 2 % corrupted, 2 % duplicated and 2 % delayed on every line, 8 let the stream run dry
-    /// (a safe `StreamUnderrun` stop) in 2 of 40 runs, while go-back-N recovered a lost
-    /// window; 16 in none.
+    /// Look-ahead horizon in setpoint periods: each segment is due to go out exactly this
+    /// many periods before its start (the send schedule), so about this many plus one are
+    /// in flight (sent, not reported done); the in-flight count is capped by the look-ahead
+    /// queue's capacity `LA` and the controller's queue capacity. Default 16 (160 ms at
+    /// 100 Hz, 16 ms at 1 kHz): in the seeded full-loop simulation with 2 % of frames
+    /// dropped, 2 % corrupted, 2 % duplicated and 2 % delayed on every line, 8 let the stream
+    /// run dry (a safe `StreamUnderrun` stop) in 2 of 40 runs, while go-back-N recovered a
+    /// lost window; 16 in none.
     pub lookahead_segments: u16,
     /// Controller silent (no valid message) this long while armed or running → stop, µs.
     /// Default 100 ms.

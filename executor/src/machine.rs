@@ -50,6 +50,7 @@ pub struct Executor<S, const CAP: usize, const LA: usize> {
     flash: crate::flash::FlashSession<CAP>,
     sync: ClockSync,
     stream: Option<Streamer<LA>>,
+    segments_sent: u64,
     stamper: FrameStamper,
     last_fault: Option<TrialFault>,
     trial_plan_id: u32,
@@ -88,6 +89,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             flash: crate::flash::FlashSession::new(),
             sync: ClockSync::new(),
             stream: None,
+            segments_sent: 0,
             stamper: FrameStamper::new(),
             last_fault: None,
             trial_plan_id: 0,
@@ -177,8 +179,25 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             let heard = self.host_last_heard_us.unwrap_or(self.last_now_us);
             t = t.min(heard + self.config.host_silence_us + 1);
             t = t.min(self.last_now_us + self.config.setpoint_period_us() / 4);
+            if let Some(due) = self.next_send_due_us() {
+                t = t.min(due);
+            }
         }
         t
+    }
+
+    /// When the next segment is due to go out, µs in the executor's clock (its send schedule,
+    /// [`Streamer::send_due_ctrl_us`] converted with the clock-sync offset); `None` when not
+    /// running, nothing is waiting or flow control holds it. Already past when the shell is
+    /// behind.
+    pub fn next_send_due_us(&self) -> Option<u64> {
+        let due_ctrl_us = self.stream.as_ref()?.send_due_ctrl_us(&self.config)?;
+        self.sync.to_exec_us(due_ctrl_us)
+    }
+
+    /// Segments handed to the controller link since start-up (all trials).
+    pub fn segments_sent(&self) -> u64 {
+        self.segments_sent
     }
 
     fn sync_deadline_us(&self) -> u64 {
@@ -272,6 +291,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
                 StreamPoll::Send(segment) => {
                     push(out, Output::Ctrl(ExecToCtrl::Move(segment)));
                     stream.sent();
+                    self.segments_sent += 1;
                 }
                 StreamPoll::Wait => return,
                 StreamPoll::Underrun { step_index } => {

@@ -44,6 +44,7 @@ struct Cursor {
 #[derive(Debug)]
 pub struct Streamer<const LA: usize> {
     t0_ctrl_us: u64,
+    started_ctrl_us: u64,
     period_us: u64,
     total_us: u64,
     next_k: u64,
@@ -73,6 +74,7 @@ impl<const LA: usize> Streamer<LA> {
         let start = (i64::from(start_nm.0), i64::from(start_nm.1));
         Self {
             t0_ctrl_us,
+            started_ctrl_us: t0_ctrl_us.saturating_sub(config.start_lead_us),
             period_us,
             total_us,
             next_k: 1,
@@ -136,13 +138,27 @@ impl<const LA: usize> Streamer<LA> {
         if segment.start_ctrl_time_us <= now_ctrl_us.saturating_add(config.underrun_margin_us) {
             return StreamPoll::Underrun { step_index };
         }
-        let limit =
-            LA.min(usize::from(config.lookahead_segments)).min(usize::from(self.ctrl_capacity));
         let horizon_us = u64::from(config.lookahead_segments) * self.period_us;
-        if self.inflight.len() >= limit || segment.start_ctrl_time_us > now_ctrl_us + horizon_us {
+        if self.flow_held() || segment.start_ctrl_time_us > now_ctrl_us + horizon_us {
             return StreamPoll::Wait;
         }
         StreamPoll::Send(segment)
+    }
+
+    /// When the next segment is due to go out, controller µs: its start minus
+    /// `lookahead_segments × T`, but not before the trial started (`t0 − start_lead_us`: the
+    /// first segments are all due at the start). `None` when none is waiting (call [`Self::poll`] first) or
+    /// flow control holds it (the in-flight limit is reached; a status report frees it).
+    pub fn send_due_ctrl_us(&self, config: &ExecutorConfig) -> Option<u64> {
+        let (segment, _, _) = self.next.as_ref()?;
+        let horizon_us = u64::from(config.lookahead_segments) * self.period_us;
+        let due = segment.start_ctrl_time_us.saturating_sub(horizon_us);
+        (!self.flow_held()).then_some(due.max(self.started_ctrl_us))
+    }
+
+    /// Whether the in-flight limit `min(LA, controller capacity)` is reached.
+    fn flow_held(&self) -> bool {
+        self.inflight.len() >= LA.min(usize::from(self.ctrl_capacity))
     }
 
     /// The segment from the last [`StreamPoll::Send`] went out.

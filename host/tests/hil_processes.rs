@@ -1,9 +1,12 @@
 //! The hardware-in-the-loop workflow as separate processes, as on a rig: `mesopush-fwsim`
 //! serves the controller on a pseudo-terminal and the camera on a Unix socket in real time,
 //! `mesopush-executor run` opens both, records, and listens for a host on a Unix socket;
-//! `mesopush flash` and `mesopush run` drive it. A 2 s push; generous timeouts, no timing
-//! assertions; the clock-sync round-trip limit raised to 20 ms (on a loaded 2-core machine
-//! replies through another process miss the default 5 ms, docs/hil.md).
+//! `mesopush flash` and `mesopush run` drive it. A 2 s push and Table II (≈ 1 min);
+//! generous timeouts, no timing assertions. As on a rig, the simulator's controller loop
+//! (standing for the controller's own microcontroller) and the executor run at `SCHED_FIFO`
+//! priority (`--rt-priority`; refused without the privilege, then they run without): on the
+//! loaded 2-core machine a starved simulator tripped the executor's 100 ms controller-silence
+//! watchdog. The clock-sync round-trip limit is raised to 20 ms (docs/hil.md).
 //!
 //! `mesopush-executor` is another package's binary: it is looked for beside this test's
 //! target directory (`cargo test --workspace` builds it; alone, `cargo build -p
@@ -104,24 +107,21 @@ fn wait_for(path: &Path, timeout: Duration) {
     }
 }
 
-#[test]
-fn fwsim_executor_flash_and_run_as_separate_processes() {
-    let tmp = tempfile::tempdir().unwrap();
-    let d = tmp.path();
-    let plan = d.join("push.toml");
-    std::fs::write(&plan, PLAN).unwrap();
+/// The three processes on `plan` (seed 3): fwsim (placed at `plan`'s start), the executor,
+/// `mesopush flash` and `mesopush run`; returns `run`'s JSON report and the trial directory.
+fn hil_trial(d: &Path, plan: &Path, run_timeout: Duration) -> (serde_json::Value, PathBuf) {
     let fw_dir = d.join("fw");
     let mut fwsim = Killed(
         Command::new(FWSIM)
-            .args(["--seed", "3", "--plan"])
-            .arg(&plan)
+            .args(["--seed", "3", "--rt-priority", "70", "--plan"])
+            .arg(plan)
             .arg("--run-dir")
             .arg(&fw_dir)
             .stdout(Stdio::piped())
             .spawn()
             .expect("mesopush-fwsim starts"),
     );
-    let prefixes = ["controller:", "camera:", "background:", "truth:", "fixture origin:"];
+    let prefixes = ["controller:", "camera:", "background:", "truth:", "fixture origin:", "world:"];
     let b = read_banner(&mut fwsim.0, &prefixes, Duration::from_secs(60));
     assert!(b[0].starts_with("/dev/"), "controller device: {b:?}");
     let host_sock = d.join("host.sock");
@@ -130,7 +130,8 @@ fn fwsim_executor_flash_and_run_as_separate_processes() {
     let _executor = Killed(
         Command::new(executor_bin())
             .args(["run", "--host-port", &host, "--ctrl-port", &b[0], "--camera", &b[1]])
-            .args(["--fixture-origin-um", &b[4], "--sync-max-rtt-us", "20000", "--record-dir"])
+            .args(["--fixture-origin-um", &b[4], "--sync-max-rtt-us", "20000"])
+            .args(["--rt-priority", "80", "--record-dir"])
             .arg(&rec)
             .arg("--plan-store")
             .arg(d.join("plan.bin"))
@@ -141,29 +142,62 @@ fn fwsim_executor_flash_and_run_as_separate_processes() {
     wait_for(&host_sock, Duration::from_secs(30));
 
     let flash = run_cmd(
-        Command::new(MESOPUSH).arg("flash").arg(&plan).args(["--port", &host, "--json"]),
+        Command::new(MESOPUSH).arg("flash").arg(plan).args(["--port", &host, "--json"]),
         Duration::from_secs(120),
     );
     let text = String::from_utf8_lossy(&flash.stdout);
     assert!(flash.status.success(), "flash: {text} {}", String::from_utf8_lossy(&flash.stderr));
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
-    assert_eq!(v["step_count"], 1, "{v}");
+    assert!(v["step_count"].as_u64().unwrap() >= 1, "{v}");
 
     let out = d.join("trial");
     let run = run_cmd(
         Command::new(MESOPUSH)
             .args(["run", "--port", &host, "--json", "--plan"])
-            .arg(&plan)
+            .arg(plan)
             .arg("--record-dir")
             .arg(&rec)
-            .args(["--background", &b[2], "--truth", &b[3], "--out"])
+            .args(["--background", &b[2], "--truth", &b[3], "--sim-world", &b[5], "--out"])
             .arg(&out),
-        Duration::from_secs(240),
+        run_timeout,
     );
     let text = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "run: {text} {}", String::from_utf8_lossy(&run.stderr));
-    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    (serde_json::from_str(&text).unwrap(), out)
+}
+
+#[test]
+fn fwsim_executor_flash_and_run_as_separate_processes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let plan = d.join("push.toml");
+    std::fs::write(&plan, PLAN).unwrap();
+    let (v, out) = hil_trial(d, &plan, Duration::from_secs(240));
     check_report(&v, &out);
+}
+
+/// Table II (≈ 52 s at the rig's speed) through the three processes: the whole plan is
+/// streamed, filmed, stamped, recorded and tracked to the end without a fault. The
+/// simulator renders off its controller loop, so clock-sync replies and reports are not held
+/// up by rendering (they were, and the trial faulted: docs/hil.md). Whether the peg ends in
+/// the hole is the world's physics (in real time it can wedge: docs/hil.md), checked only
+/// as judged here.
+#[test]
+fn table2_runs_to_the_end_through_separate_processes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plan = Path::new(env!("CARGO_MANIFEST_DIR")).join("../plans/table2.toml");
+    let (v, out) = hil_trial(tmp.path(), &plan, Duration::from_secs(300));
+    assert_eq!(v["state"], "done", "{v}");
+    assert!(v["inserted"].is_boolean(), "a tracked final pose is judged: {v}");
+    assert!(v["frames"].as_u64().unwrap() >= 500, "{v}");
+    assert!(v["tracked"].as_u64().unwrap() >= 500, "{v}");
+    let truth = &v["truth"];
+    assert!(truth["frames_compared"].as_u64().unwrap() >= 500, "{v}");
+    assert!(truth["stamp_error_us_max_abs"].as_i64().unwrap() <= 2, "{v}");
+    assert!(truth["track_error_um_max"].as_f64().unwrap() < 10.0, "{v}");
+    let trial = Trial::load(&out).expect("the trial directory reads back");
+    assert!(trial.events.iter().any(|e| e.kind == "done"));
+    assert!(trial.meta.world.is_some(), "the simulated world is recorded");
 }
 
 fn check_report(v: &serde_json::Value, out: &Path) {
@@ -191,6 +225,10 @@ fn check_report(v: &serde_json::Value, out: &Path) {
     assert!(trial.events.iter().any(|e| e.kind == "started"));
     assert!(trial.events.iter().any(|e| e.kind == "done"));
     assert!(trial.events.iter().any(|e| e.kind == "verdict"));
+    // The simulated world, as the simulator described it, and its seed.
+    let world = trial.meta.world.as_ref().expect("trial.json records the simulated world");
+    assert!(world["toml"].as_str().is_some_and(|t| t.contains("[camera]")), "{world}");
+    assert_eq!(trial.meta.seeds.get("world"), Some(&3));
 }
 
 #[test]

@@ -16,9 +16,10 @@ use mesopush_executor::endpoint::Endpoint;
 use mesopush_executor::shell::camera_source::{CameraCounters, CameraEnd, spawn_camera_reader};
 use mesopush_executor::shell::port::{ByteRead, ByteWrite, split_tty};
 use mesopush_executor::shell::record::{ExecRecorder, RecordConfig};
+use mesopush_executor::shell::rt::{RtApplied, RtOptions, apply};
 use mesopush_executor::shell::runner::ShellEnd;
 use mesopush_executor::shell::unix_line::{LineAddr, listen};
-use mesopush_executor::shell::{Shell, ShellStats};
+use mesopush_executor::shell::{Shell, ShellOptions, ShellStats};
 use mesopush_executor::store::file::FileStore;
 use mesopush_executor::{CameraFrame, Executor, ExecutorConfig, LogEvent, PlanStore};
 use mesopush_protocol::LinkConfig;
@@ -67,12 +68,53 @@ struct BenchArgs {
     /// Length of the streamed plan, s.
     #[arg(long, default_value_t = 10.0)]
     seconds: f64,
-    /// Run a busy-looping thread beside the shell (load on the other core).
+    /// Run a busy-looping thread beside the shell (pinned to the other CPU with --pin-cpu).
     #[arg(long)]
     hog: bool,
     /// Print the figures as one JSON object.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    rt: RtArgs,
+}
+
+/// Real-time set-up of the loop thread; each step fails soft (a message, no abort).
+#[derive(Debug, Clone, Copy, ClapArgs)]
+struct RtArgs {
+    /// Run the loop thread (and its line readers) at this SCHED_FIFO priority (1..=99).
+    #[arg(long, value_name = "N")]
+    rt_priority: Option<i32>,
+    /// Pin the loop thread (and its line readers) to this CPU.
+    #[arg(long, value_name = "C")]
+    pin_cpu: Option<usize>,
+    /// Lock the process's memory (mlockall); implied by --rt-priority.
+    #[arg(long)]
+    mlock: bool,
+    /// Spin this long on the clock before a send deadline instead of sleeping, µs
+    /// [default: 300].
+    #[arg(long, value_name = "US")]
+    spin_us: Option<u64>,
+}
+
+impl RtArgs {
+    fn options(&self) -> RtOptions {
+        RtOptions {
+            fifo_priority: self.rt_priority,
+            pin_cpu: self.pin_cpu,
+            lock_memory: self.mlock || self.rt_priority.is_some(),
+        }
+    }
+
+    fn shell(&self) -> ShellOptions {
+        ShellOptions { spin_us: self.spin_us.unwrap_or(ShellOptions::DEFAULT.spin_us) }
+    }
+}
+
+/// Prints what the OS refused of the real-time set-up.
+fn warn_rt(applied: &RtApplied) {
+    for r in &applied.refused {
+        eprintln!("mesopush-executor: real-time set-up refused, continuing without: {r}");
+    }
 }
 
 #[derive(Debug, ClapArgs)]
@@ -90,10 +132,24 @@ struct Args {
     /// File keeping the accepted plan across restarts (replaced atomically).
     #[arg(long, default_value = "executor-plan.bin")]
     plan_store: PathBuf,
+    /// Run the loop thread (and its line readers) at this SCHED_FIFO priority (1..=99).
+    #[arg(long, value_name = "N")]
+    rt_priority: Option<i32>,
+    /// Pin the loop thread (and its line readers) to this CPU.
+    #[arg(long, value_name = "C")]
+    pin_cpu: Option<usize>,
+    /// Lock the process's memory (mlockall); implied by --rt-priority.
+    #[arg(long)]
+    mlock: bool,
+    /// Spin this long on the clock before a send deadline instead of sleeping, µs
+    /// [default: 300].
+    #[arg(long, value_name = "US")]
+    spin_us: Option<u64>,
     /// Setpoints per second sent to the controller (1..=1000).
     #[arg(long, default_value_t = 100)]
     setpoint_rate_hz: u32,
-    /// Segments kept in flight ahead of the controller (≤ 32).
+    /// Look-ahead horizon: each segment goes out this many setpoint periods before its
+    /// start (≤ 32).
     #[arg(long, default_value_t = 16)]
     lookahead_segments: u16,
     /// Stop after this many seconds (default: run until a line closes).
@@ -148,14 +204,22 @@ fn main() -> Result<()> {
 }
 
 fn bench(b: &BenchArgs) -> Result<()> {
-    let opts = BenchOptions { rate_hz: b.rate_hz, seconds: b.seconds, hog: b.hog };
+    let opts = BenchOptions {
+        rate_hz: b.rate_hz,
+        seconds: b.seconds,
+        hog: b.hog,
+        rt: b.rt.options(),
+        spin_us: b.rt.shell().spin_us,
+    };
     let r = run_bench(opts).context("bench")?;
+    warn_rt(&r.rt);
     if b.json {
         println!("{}", serde_json::to_string(&r)?);
     } else {
         println!(
-            "{} Hz, {} s{}: {} segments; send deviation p50 {} µs, p99 {} µs, max {} µs; \
-             min margin {} µs; shell max late {} µs; trial {}",
+            "{} Hz, {} s{}: {} segments; send deviation (write − schedule) p50 {} µs, p99 {} \
+             µs, max {} µs over {} timed sends; arrival at the controller p50 {} µs, p99 {} \
+             µs, max {} µs; min margin {} µs; trial {}",
             r.rate_hz,
             r.seconds,
             if r.hog { ", hog" } else { "" },
@@ -163,8 +227,11 @@ fn bench(b: &BenchArgs) -> Result<()> {
             r.p50_us,
             r.p99_us,
             r.max_us,
+            r.timed_sends,
+            r.arrival_p50_us,
+            r.arrival_p99_us,
+            r.arrival_max_us,
             r.min_margin_us,
-            r.shell_max_late_us,
             r.trial_end
         );
     }
@@ -265,7 +332,18 @@ fn run(args: Args) -> Result<()> {
         });
     }
     let mut stats = ShellStats::default();
-    let lines = Lines { ctrl, frames: side.frames.clone(), log_tx, stop_rx };
+    // The recorder and camera threads keep the normal scheduler; the loop and its readers
+    // get the real-time set-up.
+    // (A flattened RtArgs here breaks clap's optional default subcommand: fields repeated.)
+    let rt = RtArgs {
+        rt_priority: args.rt_priority,
+        pin_cpu: args.pin_cpu,
+        mlock: args.mlock,
+        spin_us: args.spin_us,
+    };
+    warn_rt(&apply(&rt.options()));
+    let opts = rt.shell();
+    let lines = Lines { ctrl, frames: side.frames.clone(), log_tx, stop_rx, opts };
     let end = match LineAddr::parse(&args.host_port) {
         LineAddr::Unix(path) => {
             let host = listen(&path).context("host line")?;
@@ -281,8 +359,24 @@ fn run(args: Args) -> Result<()> {
     let camera_end = side.camera.map(|t| t.join());
     let recorded = side.recorder.join();
     let c = &side.counters;
+    let sends = &stats.sends;
     eprintln!(
-        "executor stopped: {end:?}; {stats:?}; {:?}; camera {camera_end:?}: {} frames, {} not \
+        "executor stopped: {end:?}; loop: {} passes, max late {} µs, {} log records ({} \
+         lost); send deviation (write − schedule) p50 {} µs, p99 {} µs, max {} µs over {} \
+         timed sends ({} batched, {} released by flow control)",
+        stats.iterations,
+        stats.max_late_us,
+        stats.logged,
+        stats.log_dropped,
+        sends.quantile_us(0.5),
+        sends.quantile_us(0.99),
+        sends.max_us,
+        sends.timed,
+        sends.batched,
+        sends.flow_released,
+    );
+    eprintln!(
+        "{:?}; camera {camera_end:?}: {} frames, {} not \
          stamped (loop queue full), {} images not recorded (recorder queue full)",
         endpoint.stats(),
         c.received.load(Ordering::Relaxed),
@@ -306,6 +400,7 @@ struct Lines {
     frames: Option<Receiver<CameraFrame>>,
     log_tx: crossbeam_channel::Sender<LogEvent>,
     stop_rx: Receiver<()>,
+    opts: ShellOptions,
 }
 
 fn serve<S: PlanStore>(
@@ -315,5 +410,6 @@ fn serve<S: PlanStore>(
     l: Lines,
     stats: &mut ShellStats,
 ) -> ShellEnd {
-    Shell::run(endpoint, clock, host, l.ctrl, l.frames, l.log_tx, l.stop_rx, stats)
+    let lines = (host, l.ctrl, l.frames);
+    Shell::run_with(endpoint, clock, lines, l.log_tx, l.stop_rx, l.opts, stats)
 }

@@ -5,7 +5,10 @@
 //! [`crate::endpoint::Endpoint`], waits on the channels until the core's next deadline, feeds
 //! bytes, frames and ticks in, writes the frames it produces and hands log records to the
 //! recorder's channel without ever blocking on it (a full channel is counted, never waited
-//! for). Time comes from a [`crate::clock::Clock`]. Byte links are behind [`port::ByteRead`]
+//! for). Before a segment's send deadline the loop sleeps until `spin_us` before it, then
+//! spins on the clock (hybrid wait: a sleep wakes tens to hundreds of µs late); each
+//! segment's write is timed against its schedule ([`timing`]). [`rt`] optionally locks
+//! memory, raises the loop to `SCHED_FIFO` and pins it to a CPU. Time comes from a [`crate::clock::Clock`]. Byte links are behind [`port::ByteRead`]
 //! / [`port::ByteWrite`], implemented for serial ports (`serialport::TTYPort`, which also
 //! gives pseudo-terminal pairs), for in-memory pipes and for a Unix socket host line
 //! ([`unix_line`]). Camera frames come from the camera channel ([`camera_source`]); the
@@ -16,9 +19,12 @@ pub mod camera_source;
 pub mod port;
 #[cfg(unix)]
 pub mod record;
+pub mod rt;
 pub mod runner;
+pub mod timing;
 #[cfg(unix)]
 pub mod unix_line;
 
 pub use port::{ByteRead, ByteWrite, Chunk};
-pub use runner::{Shell, ShellStats};
+pub use runner::{Shell, ShellOptions, ShellStats};
+pub use timing::SendTiming;

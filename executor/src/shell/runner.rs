@@ -1,6 +1,7 @@
 //! The shell's loop: reader threads, the endpoint, writers, the recorder channel.
 
 use super::port::{ByteRead, ByteWrite, CHUNK_BYTES, Chunk};
+use super::timing::SendTiming;
 use crate::camera::CameraFrame;
 use crate::clock::Clock;
 use crate::endpoint::Endpoint;
@@ -21,6 +22,26 @@ const READ_QUEUE_CHUNKS: usize = 256;
 /// Longest wait of the loop, so a stop request is seen promptly.
 const MAX_WAIT_US: u64 = 10_000;
 
+/// Settings of the loop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ShellOptions {
+    /// Before a segment's send deadline the loop sleeps until this long before it and spins
+    /// on the clock for the rest, µs (0: sleep only). Default 300: a sleeping thread wakes up
+    /// to a few hundred µs late on a normal kernel, a spin costs this much CPU per segment.
+    pub spin_us: u64,
+}
+
+impl ShellOptions {
+    /// The documented defaults.
+    pub const DEFAULT: Self = Self { spin_us: 300 };
+}
+
+impl Default for ShellOptions {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
 /// Counters of a shell run.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
 pub struct ShellStats {
@@ -32,6 +53,8 @@ pub struct ShellStats {
     pub log_dropped: u64,
     /// Largest lateness of a loop wake-up past the core's deadline, µs.
     pub max_late_us: u64,
+    /// Setpoint segment writes against their send schedule.
+    pub sends: SendTiming,
 }
 
 /// Why the loop ended.
@@ -71,7 +94,8 @@ fn spawn_reader(
 
 impl Shell {
     /// Runs `endpoint` on the two lines until `stop_rx` fires or a line fails; camera
-    /// frames arrive on `frames`, log records go to `log` (never blocking).
+    /// frames arrive on `frames`, log records go to `log` (never blocking). Default
+    /// [`ShellOptions`].
     #[allow(clippy::too_many_arguments)]
     pub fn run<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
         endpoint: &mut Endpoint<S, CAP, LA, W>,
@@ -83,6 +107,27 @@ impl Shell {
         stop_rx: Receiver<()>,
         stats: &mut ShellStats,
     ) -> ShellEnd {
+        let lines = (host, ctrl, frames);
+        Self::run_with(endpoint, clock, lines, log, stop_rx, ShellOptions::DEFAULT, stats)
+    }
+
+    /// [`Self::run`] with `opts`; `lines` are the host line, the controller line and the
+    /// camera frames.
+    #[allow(clippy::type_complexity)]
+    pub fn run_with<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
+        endpoint: &mut Endpoint<S, CAP, LA, W>,
+        clock: &impl Clock,
+        lines: (
+            (impl ByteRead + 'static, impl ByteWrite),
+            (impl ByteRead + 'static, impl ByteWrite),
+            Option<Receiver<CameraFrame>>,
+        ),
+        log: Sender<LogEvent>,
+        stop_rx: Receiver<()>,
+        opts: ShellOptions,
+        stats: &mut ShellStats,
+    ) -> ShellEnd {
+        let (host, ctrl, frames) = lines;
         let stop = Arc::new(AtomicBool::new(false));
         let (host_tx, host_rx) = bounded(READ_QUEUE_CHUNKS);
         let (ctrl_tx, ctrl_rx) = bounded(READ_QUEUE_CHUNKS);
@@ -98,31 +143,44 @@ impl Shell {
         let end = loop {
             let ends =
                 Lines { host_rx: &host_rx, ctrl_rx: &ctrl_rx, frames: &frames, stop_rx: &stop_rx };
-            if let Some(end) = Self::iterate(endpoint, clock, &ends, &log, stats) {
+            let sent_before = endpoint.core().segments_sent();
+            let due = endpoint.core().next_send_due_us();
+            if let Some(end) = Self::iterate(endpoint, clock, &ends, &log, opts, due, stats) {
                 break end;
             }
             if let Err(end) = Self::transmit(endpoint, clock.now_us(), &mut host_w, &mut ctrl_w) {
                 break end;
+            }
+            let sent = endpoint.core().segments_sent() - sent_before;
+            if sent > 0 {
+                stats.sends.record(due, clock.now_us(), sent);
             }
         };
         shell.join();
         end
     }
 
+    /// One pass: wait for input or the deadline (sleep, then spin when the deadline is a
+    /// send due at `due`), feed what came, poll the core.
+    #[allow(clippy::too_many_arguments)]
     fn iterate<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
         endpoint: &mut Endpoint<S, CAP, LA, W>,
         clock: &impl Clock,
         lines: &Lines<'_>,
         log: &Sender<LogEvent>,
+        opts: ShellOptions,
+        due: Option<u64>,
         stats: &mut ShellStats,
     ) -> Option<ShellEnd> {
         stats.iterations += 1;
+        let deadline = endpoint.next_deadline_us();
+        let spin_us = if due.is_some_and(|d| d <= deadline) { opts.spin_us } else { 0 };
+        let wait_us = deadline.saturating_sub(spin_us).saturating_sub(clock.now_us());
+        let wait_us = wait_us.min(MAX_WAIT_US);
         let mut record = |e: &LogEvent| match log.try_send(*e) {
             Ok(()) => stats.logged += 1,
             Err(_) => stats.log_dropped += 1,
         };
-        let deadline = endpoint.next_deadline_us();
-        let wait_us = deadline.saturating_sub(clock.now_us()).min(MAX_WAIT_US);
         let fed = select! {
             recv(lines.host_rx) -> c => match c {
                 Ok(c) => endpoint.on_host_bytes(clock.now_us(), c.bytes(), &mut record),
@@ -137,7 +195,10 @@ impl Shell {
                 Err(_) => Ok(()),
             },
             recv(lines.stop_rx) -> _ => return Some(ShellEnd::Stopped),
-            default(Duration::from_micros(wait_us)) => Ok(()),
+            default(Duration::from_micros(wait_us)) => {
+                spin_until(clock, deadline, spin_us);
+                Ok(())
+            }
         };
         let now = clock.now_us();
         if now > deadline {
@@ -178,4 +239,19 @@ struct Lines<'a> {
     ctrl_rx: &'a Receiver<Chunk>,
     frames: &'a Receiver<CameraFrame>,
     stop_rx: &'a Receiver<()>,
+}
+
+/// Busy-waits until `deadline_us`, at most `max_us` (the sleep before it woke up to then).
+fn spin_until(clock: &impl Clock, deadline_us: u64, max_us: u64) {
+    if max_us == 0 {
+        return;
+    }
+    let give_up = clock.now_us().saturating_add(max_us);
+    loop {
+        let now = clock.now_us();
+        if now >= deadline_us || now >= give_up {
+            return;
+        }
+        std::hint::spin_loop();
+    }
 }

@@ -5,7 +5,6 @@
 //! process ([`super::fwsim`]).
 
 use super::simloop::{EW, Q};
-use super::world::{RigWorld, WorldFrame};
 use mesopush_firmware_sim::ControllerNode;
 use mesopush_firmware_sim::World;
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
@@ -58,13 +57,15 @@ impl ServedController {
     }
 
     /// One round at `now_us`: line, controller, world, camera. Returns the line's state and
-    /// the frame the camera delivered, if any. With no peer the controller runs but sends
-    /// nothing (a write into an unread pty would block once its buffer fills).
-    pub fn step(
+    /// the frame the camera delivered, if any (what `world.render` returns: a rendered image,
+    /// or only what to render when the caller renders elsewhere). With no peer the
+    /// controller runs but sends nothing (a write into an unread pty would block once its
+    /// buffer fills).
+    pub fn step<W: World>(
         &mut self,
         now_us: u64,
-        world: &mut RigWorld,
-    ) -> io::Result<(LineState, Option<SimFrame<WorldFrame>>)> {
+        world: &mut W,
+    ) -> io::Result<(LineState, Option<SimFrame<W::Frame>>)> {
         let (state, n) = match self.master.read(&mut self.buf) {
             Ok(n) => (LineState::Connected, n),
             Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock) => {

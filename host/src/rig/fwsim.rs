@@ -9,38 +9,55 @@
 //! exactly into its own clock. The world's undeclared camera latency (if any) makes the stamp
 //! late, as in one process.
 //!
+//! Threads: the controller loop (line, controller node, world physics, camera schedule)
+//! never renders. At each delivered frame it hands the frame's header and ground truth to
+//! the renderer thread through a bounded queue (`RENDER_QUEUE`) with `try_send`: when the
+//! renderer falls behind, the frame is dropped and counted (`frames_render_dropped`; the
+//! executor sees the counter gap as a dropped frame), the controller never waits. The
+//! renderer draws the synthetic microscope image (its own noise stream, seed stream
+//! `1000 + noise_stream`), writes the truth row and queues the frame for the camera socket's
+//! writer thread (`CAMERA_QUEUE`, again never waited for). Rendering a 928 × 480 frame takes
+//! milliseconds; on the controller's loop it delayed clock-sync replies past the executor's
+//! limit under load (docs/hil.md).
+//!
 //! Files in the run directory: `camera.sock`, `background.png` (the empty fixture, as a user
-//! records one), and `fwsim-truth.csv`: for every frame sent, the true exposure and the stamp
+//! records one), `fwsim-world.json` (the seed and the world's description, which
+//! `mesopush run --sim-world` records as trial.json's `world`), and `fwsim-truth.csv`: for every frame sent, the true exposure and the stamp
 //! (both `CLOCK_MONOTONIC` µs) and the true peg and probe tip, flushed per row — the ground
 //! truth `mesopush run --truth` compares with; never read by identification or diagnosis.
 
 use super::ctrl_serve::{LineState, ServedController};
 use super::recorder::encode_png;
 use super::simloop::CameraTiming;
-use super::world::{RigWorld, WorldFrame, WorldSetup};
+use super::world::{RigWorld, TruthSample, WorldSetup};
 use super::world_file::WorldFile;
 use crate::Error;
 use crate::geom::{Pose, Vec2};
-use crate::sim::Plan;
-use crate::vision::RenderSettings;
-use crossbeam_channel::{Receiver, Sender, bounded};
+use crate::sim::{Fixture, Plan};
+use crate::vision::{RenderSettings, Renderer};
+use crossbeam_channel::{Sender, bounded};
 use mesopush_executor::clock::{Clock, MonotonicClock};
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
 use mesopush_firmware_sim::{ControllerNode, CtrlConfig, FaultConfig, SimRng};
 use mesopush_protocol::LinkConfig;
 use mesopush_protocol::camera::CameraFrameHeader;
 use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 use serialport::{SerialPort, TTYPort};
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::time::Duration;
+use std::thread::JoinHandle;
 
 /// Frames queued for the camera socket's writer thread.
 const CAMERA_QUEUE: usize = 4;
+/// Frames queued for the renderer thread (≈ 2 frame periods).
+const RENDER_QUEUE: usize = 2;
+
+mod render;
+use render::{Deferred, Painter, RenderJob, bind_camera, render_frames, serve_camera};
 
 /// What the simulator serves.
 #[derive(Debug, Clone)]
@@ -66,6 +83,8 @@ pub struct FwsimAddrs {
     pub background: PathBuf,
     /// The truth file.
     pub truth: PathBuf,
+    /// The world's description and seed (`fwsim-world.json`, for trial.json's `world`).
+    pub world: PathBuf,
     /// Fixture origin in stage coordinates, µm (the executor's `--fixture-origin-um`).
     pub fixture_origin_um: Vec2,
 }
@@ -77,8 +96,12 @@ pub struct FwsimSummary {
     pub frames: u64,
     /// Frames not sent (no camera client, or its queue full).
     pub frames_unsent: u64,
+    /// Frames dropped because the renderer had fallen behind (its queue full).
+    pub frames_render_dropped: u64,
     /// Segments the controller applied.
     pub segments_applied: u64,
+    /// Physics advances that ended with the peg wedged (`RigWorld::jams`).
+    pub jams: u64,
 }
 
 /// A simulator ready to serve.
@@ -88,15 +111,19 @@ pub struct Fwsim {
     ctrl: ServedController,
     world: RigWorld,
     clock: MonotonicClock,
-    truth: BufWriter<File>,
-    camera_tx: Sender<(CameraFrameHeader, Vec<u8>)>,
+    render_tx: Sender<RenderJob>,
+    renderer: JoinHandle<Result<(), Error>>,
+    render_dropped: u64,
     unsent: Arc<AtomicU64>,
     size_px: [u32; 2],
 }
 
 /// The world, its camera timing and the stage's start for `opts` (the same seed streams
 /// as the in-process loop: camera noise 12 + stream, start perturbation 13).
-fn build_world(opts: &FwsimOptions, rng: &SimRng) -> Result<(RigWorld, CameraTiming), Error> {
+fn build_world(
+    opts: &FwsimOptions,
+    rng: &SimRng,
+) -> Result<(RigWorld, CameraTiming, Painter), Error> {
     let ws = &opts.world.spec;
     let render = RenderSettings {
         width_px: ws.camera.size_px[0],
@@ -122,6 +149,13 @@ fn build_world(opts: &FwsimOptions, rng: &SimRng) -> Result<(RigWorld, CameraTim
         }
         None => nominal,
     };
+    let walls = Fixture::paper().walls;
+    let painter = Painter {
+        renderer: Renderer::new(render.clone(), &walls)?,
+        walls,
+        peg: opts.world.model.part.polygon().clone(),
+        rng: ChaCha8Rng::seed_from_u64(rng.fork(1000 + ws.camera.noise_stream).next_u64()),
+    };
     let setup = WorldSetup {
         model: opts.world.model.clone(),
         peg_start,
@@ -133,7 +167,7 @@ fn build_world(opts: &FwsimOptions, rng: &SimRng) -> Result<(RigWorld, CameraTim
     };
     let noise =
         rand_chacha::ChaCha8Rng::seed_from_u64(rng.fork(12 + ws.camera.noise_stream).next_u64());
-    Ok((RigWorld::new(setup, opts.plan.probe_start(), noise)?, camera))
+    Ok((RigWorld::new(setup, opts.plan.probe_start(), noise)?, camera, painter))
 }
 
 fn io_err(what: impl AsRef<Path>, e: impl std::fmt::Display) -> Error {
@@ -147,7 +181,7 @@ impl Fwsim {
         opts.plan.validate()?;
         std::fs::create_dir_all(&opts.run_dir).map_err(|e| Error::io(&opts.run_dir, e))?;
         let rng = SimRng::new(opts.seed);
-        let (mut world, cam) = build_world(opts, &rng)?;
+        let (mut world, cam, painter) = build_world(opts, &rng)?;
         let background = opts.run_dir.join("background.png");
         crate::trial::writer::write_atomic(&background, &encode_png(&world.background())?)?;
         let faults = FaultConfig {
@@ -190,15 +224,28 @@ impl Fwsim {
         let unsent = Arc::new(AtomicU64::new(0));
         let u = unsent.clone();
         std::thread::spawn(move || serve_camera(&listener, &camera_rx, &u));
+        let (render_tx, render_rx) = bounded(RENDER_QUEUE);
+        let (u, tp) = (unsent.clone(), truth_path.clone());
+        let renderer = std::thread::spawn(move || {
+            render_frames(painter, &render_rx, &camera_tx, &u, (truth, &tp))
+        });
+        let world_path = opts.run_dir.join("fwsim-world.json");
+        let description =
+            serde_json::json!({ "seed": opts.seed, "world": opts.world.description() });
+        let text = serde_json::to_string_pretty(&description)
+            .map_err(|e| Error::invalid("fwsim-world.json", e.to_string()))?;
+        crate::trial::writer::write_atomic(&world_path, text.as_bytes())?;
         let addrs = FwsimAddrs {
             controller,
             camera: sock,
             background,
             truth: truth_path,
+            world: world_path,
             fixture_origin_um: Vec2::new(ox, oy),
         };
         let size_px = opts.world.spec.camera.size_px;
-        Ok(Self { addrs, ctrl, world, clock, truth, camera_tx, unsent, size_px })
+        let render_dropped = 0;
+        Ok(Self { addrs, ctrl, world, clock, render_tx, renderer, render_dropped, unsent, size_px })
     }
 
     /// Where to reach it.
@@ -211,12 +258,15 @@ impl Fwsim {
     pub fn serve(mut self, stop: &AtomicBool) -> Result<FwsimSummary, Error> {
         let mut seen_peer = false;
         let mut frames = 0u64;
+        let mut probe_um = Vec2::new(0.0, 0.0);
         while !stop.load(Ordering::Relaxed) {
             let now = self.clock.now_us();
+            let mut world = Deferred { world: &mut self.world, probe_um };
             let (line, frame) = self
                 .ctrl
-                .step(now, &mut self.world)
+                .step(now, &mut world)
                 .map_err(|e| Error::io(&self.addrs.controller, e))?;
+            probe_um = world.probe_um;
             match line {
                 LineState::Connected => seen_peer = true,
                 LineState::NoPeer if seen_peer => break,
@@ -224,19 +274,22 @@ impl Fwsim {
             }
             if let Some(f) = frame {
                 frames += 1;
-                self.send_frame(f)?;
+                self.queue_frame(f);
             }
         }
-        self.truth.flush().map_err(|e| Error::io(&self.addrs.truth, e))?;
+        drop(self.render_tx); // the renderer drains its queue and ends
+        self.renderer.join().map_err(|_| io_err("renderer", "the renderer thread panicked"))??;
         Ok(FwsimSummary {
             frames,
             frames_unsent: self.unsent.load(Ordering::Relaxed),
+            frames_render_dropped: self.render_dropped,
             segments_applied: super::simloop::applied_segments(&self.ctrl.node.events).0,
+            jams: self.world.jams(),
         })
     }
 
-    fn send_frame(&mut self, f: SimFrame<WorldFrame>) -> Result<(), Error> {
-        let exposure_mono = self.clock.to_mono_us(f.exposure_sim_us);
+    /// Hands a delivered frame to the renderer; never waits (a full queue drops it).
+    fn queue_frame(&mut self, f: SimFrame<TruthSample>) {
         let stamp_mono = self.clock.to_mono_us(self.world.driver_stamp_us(f.exposure_sim_us));
         let [w, h] = self.size_px;
         let header = CameraFrameHeader {
@@ -246,59 +299,10 @@ impl Fwsim {
             width_px: w,
             height_px: h,
         };
-        let truth = f.image.as_ref().map(|i| i.truth);
-        let pixels = f.image.map(|i| i.image.into_raw()).unwrap_or_default();
-        if self.camera_tx.try_send((header, pixels)).is_err() {
-            self.unsent.fetch_add(1, Ordering::Relaxed);
-        }
-        if let Some(t) = truth {
-            writeln!(
-                self.truth,
-                "{},{exposure_mono},{stamp_mono},{},{},{},{},{}",
-                f.frame_seq, t.peg.x_um, t.peg.y_um, t.peg.theta_rad, t.probe_um.x, t.probe_um.y
-            )
-            .and_then(|()| self.truth.flush())
-            .map_err(|e| Error::io(&self.addrs.truth, e))?;
-        }
-        Ok(())
-    }
-}
-
-fn bind_camera(path: &Path) -> Result<UnixListener, Error> {
-    mesopush_executor::shell::unix_line::remove_stale_socket(path)
-        .map_err(|e| Error::io(path, e))?;
-    let l = UnixListener::bind(path).map_err(|e| Error::io(path, e))?;
-    l.set_nonblocking(true).map_err(|e| Error::io(path, e))?;
-    Ok(l)
-}
-
-/// The camera socket's writer: one client at a time; frames with no client are discarded
-/// (counted), a client that hangs up is replaced by the next.
-fn serve_camera(
-    listener: &UnixListener,
-    rx: &Receiver<(CameraFrameHeader, Vec<u8>)>,
-    unsent: &AtomicU64,
-) {
-    let mut client: Option<UnixStream> = None;
-    loop {
-        let msg = match rx.recv_timeout(Duration::from_millis(20)) {
-            Ok(m) => Some(m),
-            Err(crossbeam_channel::RecvTimeoutError::Timeout) => None,
-            Err(crossbeam_channel::RecvTimeoutError::Disconnected) => return,
-        };
-        if client.is_none()
-            && let Ok((s, _)) = listener.accept()
-            && s.set_nonblocking(false).is_ok()
-        {
-            client = Some(s);
-        }
-        let Some((header, pixels)) = msg else { continue };
-        let sent = client.as_mut().is_some_and(|s| {
-            s.write_all(&header.encode()).and_then(|()| s.write_all(&pixels)).is_ok()
-        });
-        if !sent {
-            client = None;
-            unsent.fetch_add(1, Ordering::Relaxed);
+        let exposure_mono_us = self.clock.to_mono_us(f.exposure_sim_us);
+        let job = RenderJob { header, exposure_mono_us, truth: f.image };
+        if self.render_tx.try_send(job).is_err() {
+            self.render_dropped += 1;
         }
     }
 }

@@ -58,6 +58,9 @@ pub struct RunOptions {
     pub lead_us: u64,
     /// The firmware simulator's `fwsim-truth.csv`, for the error figures.
     pub truth: Option<PathBuf>,
+    /// The firmware simulator's `fwsim-world.json` (its world description and seed), recorded
+    /// as trial.json's `world` when the rig was simulated.
+    pub sim_world: Option<PathBuf>,
 }
 
 /// Errors against the simulator's truth.
@@ -154,7 +157,11 @@ pub fn run(o: &RunOptions) -> Result<RunReport, Error> {
         reason,
         telemetry: telemetry.clone(),
     };
+    let sim_world = o.sim_world.as_deref().map(read_sim_world).transpose()?;
     let trial = complete_trial(&dir, &c)?;
+    if let Some(world) = sim_world {
+        record_sim_world(&dir, world)?;
+    }
     let truth = o.truth.as_deref().map(|t| truth_figures(&dir, t)).transpose()?;
     Ok(RunReport {
         trial,
@@ -162,6 +169,32 @@ pub fn run(o: &RunOptions) -> Result<RunReport, Error> {
         truth,
         wall_time_s: wall.elapsed().as_secs_f64(),
     })
+}
+
+/// Reads the simulator's `fwsim-world.json`: `{"seed": …, "world": <description>}`.
+fn read_sim_world(path: &Path) -> Result<SimWorld, Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    serde_json::from_str(&text)
+        .map_err(|e| Error::invalid("--sim-world", format!("{}: {e}", path.display())))
+}
+
+/// Adds the simulated world to the completed trial.json (`world`, seed `world`).
+fn record_sim_world(dir: &Path, w: SimWorld) -> Result<(), Error> {
+    let path = dir.join("trial.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let bad = |e: serde_json::Error| Error::invalid("trial.json", e.to_string());
+    let mut meta: crate::trial::TrialMeta = serde_json::from_str(&text).map_err(bad)?;
+    meta.world = Some(w.world);
+    meta.seeds.insert("world".into(), w.seed);
+    let text = serde_json::to_string_pretty(&meta).map_err(bad)?;
+    crate::trial::writer::write_atomic(&path, text.as_bytes())
+}
+
+/// The simulator's world file: the one seed and the world's description.
+#[derive(Debug, Deserialize)]
+struct SimWorld {
+    seed: u64,
+    world: serde_json::Value,
 }
 
 fn wait_for_recording(dir: &Path) -> Result<PathBuf, Error> {

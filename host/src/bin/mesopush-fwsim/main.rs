@@ -5,6 +5,7 @@
 
 use anyhow::Context;
 use clap::Parser;
+use mesopush_executor::shell::rt::{RtOptions, apply};
 use mesopush_host::rig::WorldFile;
 use mesopush_host::rig::fwsim::{Fwsim, FwsimOptions};
 use mesopush_host::sim::Plan;
@@ -31,6 +32,11 @@ struct Args {
     /// Directory for camera.sock, background.png and fwsim-truth.csv.
     #[arg(long, default_value = "runs/fwsim")]
     run_dir: PathBuf,
+    /// Run the controller loop at this SCHED_FIFO priority (1..=99), as the controller's own
+    /// microcontroller would not be starved by a loaded host; the renderer and camera threads
+    /// keep the normal scheduler. Refused by the OS: a message, and it runs without.
+    #[arg(long, value_name = "N")]
+    rt_priority: Option<i32>,
 }
 
 fn main() -> std::process::ExitCode {
@@ -52,19 +58,30 @@ fn run(args: Args) -> anyhow::Result<()> {
         Some(p) => Plan::load(p)?,
         None => Plan::from_toml(TABLE2_TOML, Path::new("plans/table2.toml (embedded)"))?,
     };
-    let opts = FwsimOptions { world, plan, seed: args.seed, run_dir: args.run_dir };
+    let opts = FwsimOptions { world, plan, seed: args.seed, run_dir: args.run_dir.clone() };
     let sim = Fwsim::start(&opts).context("starting the firmware simulator")?;
     let a = sim.addrs();
     println!("controller: {}", a.controller);
     println!("camera: unix:{}", a.camera.display());
     println!("background: {}", a.background.display());
     println!("truth: {}", a.truth.display());
+    println!("world: {}", a.world.display());
     println!("fixture origin: {},{}", a.fixture_origin_um.x, a.fixture_origin_um.y);
+    // After start: the renderer and camera threads exist already and keep their scheduler.
+    let rt = RtOptions { fifo_priority: args.rt_priority, ..RtOptions::default() };
+    for r in apply(&rt).refused {
+        eprintln!("mesopush-fwsim: real-time set-up refused, continuing without: {r}");
+    }
     println!("serving in real time until the executor closes the line (Ctrl-C to stop)");
     let summary = sim.serve(&AtomicBool::new(false))?;
     println!(
-        "line closed: {} frames ({} not sent), {} segments applied",
-        summary.frames, summary.frames_unsent, summary.segments_applied
+        "line closed: {} frames ({} dropped, renderer behind; {} not sent), {} segments \
+         applied, {} physics advances jammed",
+        summary.frames,
+        summary.frames_render_dropped,
+        summary.frames_unsent,
+        summary.segments_applied,
+        summary.jams
     );
     Ok(())
 }

@@ -43,6 +43,10 @@ pub(crate) struct RunArgs {
     /// The firmware simulator's fwsim-truth.csv: report frame-stamp and tracking errors.
     #[arg(long)]
     truth: Option<PathBuf>,
+    /// The firmware simulator's fwsim-world.json: record the simulated world (its
+    /// description and seed) in trial.json's `world` (mesopush-fwsim prints the path).
+    #[arg(long)]
+    sim_world: Option<PathBuf>,
     /// Print a JSON summary.
     #[arg(long)]
     json: bool,
@@ -77,6 +81,7 @@ pub(crate) fn run(args: &RunArgs) -> anyhow::Result<()> {
         period_us: config.setpoint_period_us(),
         lead_us: config.start_lead_us,
         truth: args.truth.clone(),
+        sim_world: args.sim_world.clone(),
     };
     let report = hil::run(&opts).with_context(|| format!("running the trial on {}", args.port))?;
     if args.json {

@@ -1,0 +1,126 @@
+//! Optional real-time set-up of the shell's loop thread (Linux): lock memory (`mlockall`),
+//! `SCHED_FIFO` priority, pinning to one CPU. Each step fails soft: when the OS refuses
+//! (no `CAP_SYS_NICE`, a CPU that does not exist, a memlock limit) the shell runs without it
+//! and the refusal is reported, never fatal. Threads the loop thread spawns afterwards (the
+//! line readers) inherit its policy and CPU set, as Linux threads do.
+//!
+//! The only `unsafe` of the shell: three libc calls with no safe wrapper in our
+//! dependencies (`rustix` has none for `pthread_setschedparam`).
+#![allow(unsafe_code)]
+
+use std::format;
+use std::string::{String, ToString};
+use std::vec::Vec;
+
+/// What to ask for.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RtOptions {
+    /// `SCHED_FIFO` priority (1..=99); `None` leaves the normal scheduler.
+    pub fifo_priority: Option<i32>,
+    /// CPU to pin the calling thread to; `None` leaves it free.
+    pub pin_cpu: Option<usize>,
+    /// Lock current and future memory (no page faults in the loop).
+    pub lock_memory: bool,
+}
+
+/// What was granted, and why not where not.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+pub struct RtApplied {
+    /// `SCHED_FIFO` priority in effect.
+    pub fifo_priority: Option<i32>,
+    /// CPU the thread is pinned to.
+    pub pinned_cpu: Option<usize>,
+    /// Whether memory is locked.
+    pub memory_locked: bool,
+    /// One message per refused step.
+    pub refused: Vec<String>,
+}
+
+/// Applies `opts` to the calling thread (and memory to the process).
+pub fn apply(opts: &RtOptions) -> RtApplied {
+    let mut applied = RtApplied::default();
+    if opts.lock_memory {
+        match lock_memory() {
+            Ok(()) => applied.memory_locked = true,
+            Err(e) => applied.refused.push(format!("mlockall: {e}")),
+        }
+    }
+    if let Some(cpu) = opts.pin_cpu {
+        match pin_current_thread(cpu) {
+            Ok(()) => applied.pinned_cpu = Some(cpu),
+            Err(e) => applied.refused.push(format!("pin to CPU {cpu}: {e}")),
+        }
+    }
+    if let Some(prio) = opts.fifo_priority {
+        match set_fifo_priority(prio) {
+            Ok(()) => applied.fifo_priority = Some(prio),
+            Err(e) => applied.refused.push(format!("SCHED_FIFO priority {prio}: {e}")),
+        }
+    }
+    applied
+}
+
+#[cfg(target_os = "linux")]
+fn lock_memory() -> Result<(), String> {
+    // SAFETY: plain system call without pointers.
+    let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+    if rc == 0 { Ok(()) } else { Err(std::io::Error::last_os_error().to_string()) }
+}
+
+/// Pins the calling thread to `cpu`.
+#[cfg(target_os = "linux")]
+pub fn pin_current_thread(cpu: usize) -> Result<(), String> {
+    if cpu >= libc::CPU_SETSIZE as usize {
+        return Err(format!("CPU index above {}", libc::CPU_SETSIZE - 1));
+    }
+    // SAFETY: `set` is a plain bit set initialised by CPU_ZERO; pid 0 is the calling thread.
+    let rc = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_ZERO(&mut set);
+        libc::CPU_SET(cpu, &mut set);
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+    };
+    if rc == 0 { Ok(()) } else { Err(std::io::Error::last_os_error().to_string()) }
+}
+
+#[cfg(target_os = "linux")]
+fn set_fifo_priority(prio: i32) -> Result<(), String> {
+    if !(1..=99).contains(&prio) {
+        return Err("priority must be 1..=99".into());
+    }
+    let param = libc::sched_param { sched_priority: prio };
+    // SAFETY: `param` outlives the call; pthread_self is the calling thread.
+    let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+    if rc == 0 { Ok(()) } else { Err(std::io::Error::from_raw_os_error(rc).to_string()) }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn lock_memory() -> Result<(), String> {
+    Err("only on Linux".into())
+}
+
+/// Pins the calling thread to `cpu` (Linux only).
+#[cfg(not(target_os = "linux"))]
+pub fn pin_current_thread(_cpu: usize) -> Result<(), String> {
+    Err("only on Linux".into())
+}
+
+#[cfg(not(target_os = "linux"))]
+fn set_fifo_priority(_prio: i32) -> Result<(), String> {
+    Err("only on Linux".into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_requests_are_refused_with_a_reason_not_a_panic() {
+        let opts = RtOptions { fifo_priority: Some(0), pin_cpu: Some(100_000), lock_memory: false };
+        let a = std::thread::spawn(move || apply(&opts)).join().unwrap();
+        assert_eq!((a.fifo_priority, a.pinned_cpu), (None, None));
+        assert_eq!(a.refused.len(), 2, "{:?}", a.refused);
+        assert!(a.refused[0].contains("CPU 100000"), "{:?}", a.refused);
+        assert!(a.refused[1].contains("1..=99"), "{:?}", a.refused);
+    }
+}

@@ -1,0 +1,143 @@
+//! The simulator process's renderer side: the world as the controller loop sees it
+//! ([`Deferred`]: physics only, `render` hands back what to draw), the renderer thread
+//! ([`render_frames`]) and the camera socket's writer ([`serve_camera`]).
+
+use crate::Error;
+use crate::geom::{ConvexPolygon, Vec2};
+use crate::rig::world::{RigWorld, TruthSample};
+use crate::vision::{Renderer, Scene};
+use crossbeam_channel::{Receiver, Sender};
+use mesopush_firmware_sim::{PegPose, World};
+use mesopush_protocol::camera::CameraFrameHeader;
+use rand_chacha::ChaCha8Rng;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+/// One frame for the renderer: its header and what it shows (`None`: black).
+pub(super) struct RenderJob {
+    pub(super) header: CameraFrameHeader,
+    pub(super) exposure_mono_us: u64,
+    pub(super) truth: Option<TruthSample>,
+}
+
+/// The world as the controller loop sees it: physics only; `render` returns the ground truth
+/// at the exposure (what to draw) and the renderer thread draws it.
+pub(super) struct Deferred<'a> {
+    pub(super) world: &'a mut RigWorld,
+    pub(super) probe_um: Vec2,
+}
+
+impl World for Deferred<'_> {
+    type Frame = TruthSample;
+
+    fn step(&mut self, sim_time_us: u64, probe_nm: (i32, i32)) -> PegPose {
+        self.probe_um = self.world.stage_to_fixture(probe_nm);
+        self.world.step(sim_time_us, probe_nm)
+    }
+
+    fn render(&mut self, sim_time_us: u64) -> TruthSample {
+        // As `RigWorld::render`: the snapshot at the exposure (taken when a step crossed it).
+        let truth = self.world.truth();
+        let i = truth.partition_point(|s| s.t_us < sim_time_us);
+        let fallback =
+            || TruthSample { t_us: sim_time_us, peg: self.world.peg(), probe_um: self.probe_um };
+        truth.get(i).or(truth.last()).copied().unwrap_or_else(fallback)
+    }
+}
+
+/// What the renderer thread draws with.
+pub(super) struct Painter {
+    pub(super) renderer: Renderer,
+    pub(super) walls: Vec<ConvexPolygon>,
+    pub(super) peg: ConvexPolygon,
+    pub(super) rng: ChaCha8Rng,
+}
+
+impl Painter {
+    pub(super) fn paint(&mut self, t: &TruthSample) -> Vec<u8> {
+        let scene = Scene {
+            walls: &self.walls,
+            peg: Some(&self.peg),
+            peg_pose: t.peg,
+            probe_tip: Some(t.probe_um),
+        };
+        self.renderer.render(&scene, &mut self.rng).image.into_raw()
+    }
+}
+
+/// The renderer thread: draws each queued frame, queues it for the camera socket (a full
+/// queue: counted unsent, not waited for) and writes its truth row (flushed per row).
+pub(super) fn render_frames(
+    mut painter: Painter,
+    rx: &Receiver<RenderJob>,
+    camera_tx: &Sender<(CameraFrameHeader, Vec<u8>)>,
+    unsent: &AtomicU64,
+    (mut truth, truth_path): (BufWriter<File>, &Path),
+) -> Result<(), Error> {
+    for job in rx {
+        let pixels = job.truth.as_ref().map(|t| painter.paint(t)).unwrap_or_default();
+        let stamp_mono = job.header.capture_mono_us.unwrap_or(0);
+        if camera_tx.try_send((job.header, pixels)).is_err() {
+            unsent.fetch_add(1, Ordering::Relaxed);
+        }
+        if let Some(t) = job.truth {
+            writeln!(
+                truth,
+                "{},{},{stamp_mono},{},{},{},{},{}",
+                job.header.frame_seq,
+                job.exposure_mono_us,
+                t.peg.x_um,
+                t.peg.y_um,
+                t.peg.theta_rad,
+                t.probe_um.x,
+                t.probe_um.y
+            )
+            .and_then(|()| truth.flush())
+            .map_err(|e| Error::io(truth_path, e))?;
+        }
+    }
+    truth.flush().map_err(|e| Error::io(truth_path, e))
+}
+
+pub(super) fn bind_camera(path: &Path) -> Result<UnixListener, Error> {
+    mesopush_executor::shell::unix_line::remove_stale_socket(path)
+        .map_err(|e| Error::io(path, e))?;
+    let l = UnixListener::bind(path).map_err(|e| Error::io(path, e))?;
+    l.set_nonblocking(true).map_err(|e| Error::io(path, e))?;
+    Ok(l)
+}
+
+/// The camera socket's writer: one client at a time; frames with no client are discarded
+/// (counted), a client that hangs up is replaced by the next.
+pub(super) fn serve_camera(
+    listener: &UnixListener,
+    rx: &Receiver<(CameraFrameHeader, Vec<u8>)>,
+    unsent: &AtomicU64,
+) {
+    let mut client: Option<UnixStream> = None;
+    loop {
+        let msg = match rx.recv_timeout(Duration::from_millis(20)) {
+            Ok(m) => Some(m),
+            Err(crossbeam_channel::RecvTimeoutError::Timeout) => None,
+            Err(crossbeam_channel::RecvTimeoutError::Disconnected) => return,
+        };
+        if client.is_none()
+            && let Ok((s, _)) = listener.accept()
+            && s.set_nonblocking(false).is_ok()
+        {
+            client = Some(s);
+        }
+        let Some((header, pixels)) = msg else { continue };
+        let sent = client.as_mut().is_some_and(|s| {
+            s.write_all(&header.encode()).and_then(|()| s.write_all(&pixels)).is_ok()
+        });
+        if !sent {
+            client = None;
+            unsent.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
