@@ -100,7 +100,7 @@ pub struct FwsimSummary {
     pub frames_render_dropped: u64,
     /// Segments the controller applied.
     pub segments_applied: u64,
-    /// Physics advances that ended with the peg wedged (`RigWorld::jams`).
+    /// Jam episodes: the needle deflected beyond the limit (`RigWorld::jam_events`).
     pub jams: u64,
 }
 
@@ -258,15 +258,13 @@ impl Fwsim {
     pub fn serve(mut self, stop: &AtomicBool) -> Result<FwsimSummary, Error> {
         let mut seen_peer = false;
         let mut frames = 0u64;
-        let mut probe_um = Vec2::new(0.0, 0.0);
         while !stop.load(Ordering::Relaxed) {
             let now = self.clock.now_us();
-            let mut world = Deferred { world: &mut self.world, probe_um };
+            let mut world = Deferred { world: &mut self.world };
             let (line, frame) = self
                 .ctrl
                 .step(now, &mut world)
                 .map_err(|e| Error::io(&self.addrs.controller, e))?;
-            probe_um = world.probe_um;
             match line {
                 LineState::Connected => seen_peer = true,
                 LineState::NoPeer if seen_peer => break,
@@ -284,7 +282,7 @@ impl Fwsim {
             frames_unsent: self.unsent.load(Ordering::Relaxed),
             frames_render_dropped: self.render_dropped,
             segments_applied: super::simloop::applied_segments(&self.ctrl.node.events).0,
-            jams: self.world.jams(),
+            jams: self.world.jam_events().len() as u64,
         })
     }
 

@@ -206,6 +206,17 @@ impl RigWorld {
         (self.commanded_um - self.tip_um()).norm()
     }
 
+    /// The world's state now, stamped `t_us` (what a frame exposed now would show).
+    pub fn truth_now(&self, t_us: u64) -> TruthSample {
+        TruthSample {
+            t_us,
+            peg: self.st.peg,
+            probe_um: self.tip_um(),
+            deflection_um: self.deflection_um(),
+            jams: self.jam_events.len() as u32,
+        }
+    }
+
     /// The peg's current pose.
     pub fn peg(&self) -> Pose {
         self.st.peg
@@ -338,13 +349,8 @@ impl World for RigWorld {
 
     fn render(&mut self, sim_time_us: u64) -> WorldFrame {
         let i = self.truth.partition_point(|s| s.t_us < sim_time_us);
-        let truth = self.truth.get(i).or(self.truth.last()).copied().unwrap_or(TruthSample {
-            t_us: sim_time_us,
-            peg: self.st.peg,
-            probe_um: self.tip_um(),
-            deflection_um: self.deflection_um(),
-            jams: self.jam_events.len() as u32,
-        });
+        let truth = self.truth.get(i).or(self.truth.last()).copied();
+        let truth = truth.unwrap_or_else(|| self.truth_now(sim_time_us));
         let walls = &self.sim.fixture().walls;
         let scene = Scene {
             walls,

@@ -3,7 +3,7 @@
 //! ([`render_frames`]) and the camera socket's writer ([`serve_camera`]).
 
 use crate::Error;
-use crate::geom::{ConvexPolygon, Vec2};
+use crate::geom::ConvexPolygon;
 use crate::rig::world::{RigWorld, TruthSample};
 use crate::vision::{Renderer, Scene};
 use crossbeam_channel::{Receiver, Sender};
@@ -28,14 +28,12 @@ pub(super) struct RenderJob {
 /// at the exposure (what to draw) and the renderer thread draws it.
 pub(super) struct Deferred<'a> {
     pub(super) world: &'a mut RigWorld,
-    pub(super) probe_um: Vec2,
 }
 
 impl World for Deferred<'_> {
     type Frame = TruthSample;
 
     fn step(&mut self, sim_time_us: u64, probe_nm: (i32, i32)) -> PegPose {
-        self.probe_um = self.world.stage_to_fixture(probe_nm);
         self.world.step(sim_time_us, probe_nm)
     }
 
@@ -43,9 +41,8 @@ impl World for Deferred<'_> {
         // As `RigWorld::render`: the snapshot at the exposure (taken when a step crossed it).
         let truth = self.world.truth();
         let i = truth.partition_point(|s| s.t_us < sim_time_us);
-        let fallback =
-            || TruthSample { t_us: sim_time_us, peg: self.world.peg(), probe_um: self.probe_um };
-        truth.get(i).or(truth.last()).copied().unwrap_or_else(fallback)
+        let now = || self.world.truth_now(sim_time_us);
+        truth.get(i).or(truth.last()).copied().unwrap_or_else(now)
     }
 }
 
