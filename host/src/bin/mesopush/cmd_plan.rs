@@ -64,6 +64,17 @@ pub(crate) struct PlanArgs {
     /// use the full-fidelity default).
     #[arg(long, default_value_t = RobustSettings::default().train_step_um)]
     train_step_um: f64,
+    /// With --robust: score every generation on one common set of training worlds instead of
+    /// drawing new ones each generation.
+    #[arg(long)]
+    common_worlds: bool,
+    /// With --robust: scale of the uncertainty box the training worlds are drawn from (the
+    /// validation and the check use the default box).
+    #[arg(long, default_value_t = RobustSettings::default().train_scale)]
+    train_scale: f64,
+    /// With --robust: candidates re-scored on the validation worlds.
+    #[arg(long, default_value_t = RobustSettings::default().finalists)]
+    finalists: usize,
     /// With --robust: validation worlds the best candidates are re-scored on.
     #[arg(long, default_value_t = RobustSettings::default().validation_samples)]
     validation_samples: usize,
@@ -208,6 +219,9 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         samples: args.train_samples.max(2),
         validation_samples: args.validation_samples,
         train_step_um: args.train_step_um,
+        resample: !args.common_worlds,
+        train_scale: args.train_scale,
+        finalists: args.finalists.max(1),
         ..Default::default()
     };
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
