@@ -133,6 +133,8 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
         train_step_um: 5.0,
         resample: false,
         train_scale: 1.0,
+        rounds: 1,
+        accept_rate: 0.97,
         target_rate: 1.0,
     };
     let start = Plan::table2().peg_start;
@@ -150,10 +152,11 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
     // second half + the final sampling mean on all 8; no validation.
     assert_eq!(a.trials, 8 + 4 * 4 + 2 * 4 + 8, "seed 5");
     assert_eq!(a.validation_rate, None);
-    // Score the starting skeleton on the same worlds (the optimiser draws them first): the
-    // start is scored too, and without validation the best trained wins, so the result
-    // cannot be worse on these worlds.
+    // Score the starting skeleton on the same worlds (the optimiser draws the validation
+    // seed, then them): the start is scored too, and without validation the best trained
+    // wins, so the result cannot be worse on these worlds.
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let _validation_seed: u64 = rng.random();
     let worlds = draws(&model, &world.uncertainty, &[], rs.samples, rng.random());
     let s0 = Skeleton::table2_like().to_plan("start", start);
     let e0 = mesopush_host::plan::montecarlo::evaluate(&s0, &worlds, &fixture, &settings, &|| ())
@@ -192,6 +195,8 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
         train_step_um: 10.0,
         resample: true,
         train_scale: 1.3,
+        rounds: 1,
+        accept_rate: 0.97,
         target_rate: 1.0,
     };
     let start = Plan::table2().peg_start;
@@ -212,6 +217,20 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
     let rate = a.validation_rate.expect("validated");
     assert!((0.0..=1.0).contains(&rate), "{rate}");
     assert_ne!(a, run(4), "seeds 3 and 4 gave the same design");
+    // Rounds: an unreachable acceptance rate runs all of them, each a whole search from the
+    // start, all validated on the same worlds; the winner is validated no worse than round 1's.
+    let rounds = RobustSettings { rounds: 2, accept_rate: 1.01, ..rs };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let b = design_robust(&world, start, &rounds, &mut rng, &mut |_, _| true).unwrap();
+    assert_eq!(b.evaluations, 2 * a.evaluations, "seed 3, two rounds");
+    assert_eq!(b.trials, 2 * a.trials, "seed 3, two rounds");
+    assert_eq!(b.generations, 4, "seed 3, two rounds");
+    assert!(
+        b.validation_rate >= a.validation_rate,
+        "{:?} < {:?}",
+        b.validation_rate,
+        a.validation_rate
+    );
 }
 
 #[test]
