@@ -152,11 +152,10 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
     // second half + the final sampling mean on all 8; no validation.
     assert_eq!(a.trials, 8 + 4 * 4 + 2 * 4 + 8, "seed 5");
     assert_eq!(a.validation_rate, None);
-    // Score the starting skeleton on the same worlds (the optimiser draws the validation
-    // seed, then them): the start is scored too, and without validation the best trained
-    // wins, so the result cannot be worse on these worlds.
+    // Score the starting skeleton on the same worlds (the optimiser draws them first): the
+    // start is scored too, and without validation the best trained wins, so the result
+    // cannot be worse on these worlds.
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-    let _validation_seed: u64 = rng.random();
     let worlds = draws(&model, &world.uncertainty, &[], rs.samples, rng.random());
     let s0 = Skeleton::table2_like().to_plan("start", start);
     let e0 = mesopush_host::plan::montecarlo::evaluate(&s0, &worlds, &fixture, &settings, &|| ())

@@ -217,7 +217,8 @@ pub fn design_robust(
     let fine = world;
     let world = &World { settings: &coarse, ..*fine };
     let n_val = settings.validation_samples;
-    let val_worlds = draws(fine.model, &fine.uncertainty, fine.supports, n_val, rng.random());
+    // Drawn after the first round's search (the draw order of the single-round design).
+    let mut val_worlds: Option<Vec<Draw>> = None;
     let rounds = if n_val == 0 { 1 } else { settings.rounds.max(1) };
     let mut counts = Counts::default();
     // (skeleton, training successes, validation successes)
@@ -228,8 +229,11 @@ pub fn design_robust(
             pool.extend(finalists.iter().take(1).map(|f| (f.0, f.1, 0)));
             break;
         }
+        let val_worlds = val_worlds.get_or_insert_with(|| {
+            draws(fine.model, &fine.uncertainty, fine.supports, n_val, rng.random())
+        });
         let skel: Vec<Skeleton> = finalists.iter().map(|f| f.0).collect();
-        let v = successes(&skel, &val_worlds, fine, start);
+        let v = successes(&skel, val_worlds, fine, start);
         counts.replays += skel.len() * n_val;
         pool.extend(finalists.iter().zip(v).map(|(f, v)| (f.0, f.1, v)));
         let best = pool.iter().map(|p| p.2).max().unwrap_or(0);
