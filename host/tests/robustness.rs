@@ -131,6 +131,10 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
         validation_samples: 0,
         finalists: 1,
         train_step_um: 5.0,
+        resample: false,
+        train_scale: 1.0,
+        rounds: 1,
+        accept_rate: 0.97,
         target_rate: 1.0,
     };
     let start = Plan::table2().peg_start;
@@ -167,6 +171,65 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
     let rate = v.validation_rate.expect("validated");
     assert!((0.0..=1.0).contains(&rate), "{rate}");
     assert_eq!(v.trials, a.trials + 3 * 6);
+}
+
+#[test]
+fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_the_incumbent() {
+    use mesopush_host::plan::{RobustSettings, World, design_robust};
+    let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
+    let world = World {
+        model: &model,
+        fixture: &fixture,
+        settings: &settings,
+        uncertainty: Uncertainty::default(),
+        supports: &[],
+    };
+    let rs = RobustSettings {
+        generations: 2,
+        population: 4,
+        elite: 2,
+        samples: 8,
+        validation_samples: 6,
+        finalists: 3,
+        train_step_um: 10.0,
+        resample: true,
+        train_scale: 1.3,
+        rounds: 1,
+        accept_rate: 0.97,
+        target_rate: 1.0,
+    };
+    let start = Plan::table2().peg_start;
+    let run = |seed| {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        design_robust(&world, start, &rs, &mut rng, &mut |_, _| true).unwrap()
+    };
+    let a = run(3);
+    assert_eq!(a, run(3), "seed 3");
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    assert_eq!(a, pool.install(|| run(3)), "seed 3, one thread");
+    a.plan.validate().unwrap();
+    // Generation 1: 4 candidates; generation 2 on new worlds: 4 new + the incumbent.
+    assert_eq!(a.evaluations, 1 + 4 + 5, "seed 3");
+    // Start on 8; per generation all candidates on the first half, 2 survivors on the second;
+    // the final mean on 8; 3 finalists on 6 validation worlds.
+    assert_eq!(a.trials, 8 + (4 * 4 + 2 * 4) + (5 * 4 + 2 * 4) + 8 + 3 * 6, "seed 3");
+    let rate = a.validation_rate.expect("validated");
+    assert!((0.0..=1.0).contains(&rate), "{rate}");
+    assert_ne!(a, run(4), "seeds 3 and 4 gave the same design");
+    // Rounds: an unreachable acceptance rate runs all of them, each a whole search from the
+    // start, all validated on the same worlds; the winner is validated no worse than round 1's.
+    let rounds = RobustSettings { rounds: 2, accept_rate: 1.01, ..rs };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let b = design_robust(&world, start, &rounds, &mut rng, &mut |_, _| true).unwrap();
+    assert_eq!(b.evaluations, 2 * a.evaluations, "seed 3, two rounds");
+    assert_eq!(b.trials, 2 * a.trials, "seed 3, two rounds");
+    assert_eq!(b.generations, 4, "seed 3, two rounds");
+    assert!(
+        b.validation_rate >= a.validation_rate,
+        "{:?} < {:?}",
+        b.validation_rate,
+        a.validation_rate
+    );
 }
 
 #[test]

@@ -64,6 +64,30 @@ pub(crate) struct PlanArgs {
     /// use the full-fidelity default).
     #[arg(long, default_value_t = RobustSettings::default().train_step_um)]
     train_step_um: f64,
+    /// With --robust: score every generation on one common set of training worlds instead of
+    /// drawing new ones each generation.
+    #[arg(long)]
+    common_worlds: bool,
+    /// With --robust: scale of the uncertainty box the training worlds are drawn from (the
+    /// validation and the check use the default box).
+    #[arg(long, default_value_t = RobustSettings::default().train_scale)]
+    train_scale: f64,
+    /// With --robust: most CEM rounds (another runs only while no finalist reaches
+    /// --accept-rate on the validation worlds).
+    #[arg(long, default_value_t = RobustSettings::default().rounds)]
+    rounds: usize,
+    /// With --robust: validation success rate that ends the search after a round.
+    #[arg(long, default_value_t = RobustSettings::default().accept_rate)]
+    accept_rate: f64,
+    /// With --robust: candidates per CEM generation.
+    #[arg(long, default_value_t = RobustSettings::default().population)]
+    population: usize,
+    /// With --robust: best candidates that set the next generation's distribution.
+    #[arg(long, default_value_t = RobustSettings::default().elite)]
+    elite: usize,
+    /// With --robust: candidates re-scored on the validation worlds.
+    #[arg(long, default_value_t = RobustSettings::default().finalists)]
+    finalists: usize,
     /// With --robust: validation worlds the best candidates are re-scored on.
     #[arg(long, default_value_t = RobustSettings::default().validation_samples)]
     validation_samples: usize,
@@ -208,6 +232,13 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         samples: args.train_samples.max(2),
         validation_samples: args.validation_samples,
         train_step_um: args.train_step_um,
+        resample: !args.common_worlds,
+        train_scale: args.train_scale,
+        finalists: args.finalists.max(1),
+        population: args.population.max(2),
+        rounds: args.rounds.max(1),
+        accept_rate: args.accept_rate,
+        elite: args.elite.clamp(1, args.population.max(2)),
         ..Default::default()
     };
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
@@ -220,7 +251,7 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         supports: &[],
     };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
-    let bar = bar(settings.generations as u64, args.json);
+    let bar = bar((settings.generations * settings.rounds) as u64, args.json);
     let t0 = Instant::now();
     let limit = args.time_limit_s;
     let mut time_limited = false;
@@ -235,7 +266,7 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         // Validation runs at the fine step: about twice the cost per replay.
         let next = gen_s * (1.0 + 2.0 * val / per_gen);
         let go_on = t0.elapsed().as_secs_f64() + 1.2 * next < limit;
-        time_limited |= !go_on && g < settings.generations;
+        time_limited |= !go_on && g < settings.generations * settings.rounds;
         go_on
     };
     let r = design_robust(&world, start, &settings, &mut rng, &mut on_progress)?;
