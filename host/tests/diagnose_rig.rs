@@ -48,3 +48,20 @@ fn latency_in_a_full_loop_batch_is_named_blind_and_the_clean_batch_gives_none() 
     let clean = run("", seed);
     assert_eq!(clean.verdict, Verdict::None, "seed {seed}");
 }
+
+/// Caught by the first full-loop backlash batch (12 µm, seed 6): it was attributed to
+/// adhesion. No candidate comes near the floor on its held-out trials (two x-only training
+/// pushes identify the nominal parameters poorly), so the honest verdicts are backlash or
+/// `unexplained` — never another effect.
+#[test]
+fn a_full_loop_backlash_batch_is_not_misattributed() {
+    let seed = 6;
+    let d = run("backlash_um = [12.0, 12.0]", seed);
+    assert_ne!(d.verdict, Verdict::None, "seed {seed}: a 12 µm backlash is not at the floor");
+    assert!(
+        d.verdict == Verdict::Unexplained || d.effect == Some(Candidate::Backlash),
+        "seed {seed}: {:?} {:?}",
+        d.verdict,
+        d.effect
+    );
+}

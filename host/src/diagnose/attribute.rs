@@ -198,7 +198,7 @@ pub fn diagnose(
                 base: &base,
                 settings: s,
                 noise: &noise,
-                evals_per_trial: opts.effect_evals / 5,
+                evals_per_trial: opts.effect_evals / 3,
             };
             let st = starts(c, &nominal.values, train, &ctx);
             let budget = opts.effect_evals.max(st.len() + 4);

@@ -132,7 +132,7 @@ impl Candidate {
                 &P
             }
             Candidate::SpeedFriction => {
-                const P: [Param; 1] = [p("gain_per_mm_s", -3.0, 10.0, 0.2, &[-0.5, 1.0, 2.5])];
+                const P: [Param; 1] = [p("gain_per_mm_s", -3.0, 10.0, 0.2, &[-0.5, 1.0, 2.0, 3.5])];
                 &P
             }
             Candidate::SupportDrift => {

@@ -39,6 +39,50 @@ pub fn loss(
     (sum, n.max(1))
 }
 
+/// Every weighted residual scalar of `model` over `trials` (see
+/// [`Residual::weighted_into`]); `None` when it cannot be simulated.
+pub fn residual_vector(
+    trials: &[TrialData],
+    model: &Model,
+    settings: &SimSettings,
+    noise: &Noise,
+) -> Option<Vec<f64>> {
+    if model.validate().is_err() {
+        return None;
+    }
+    let mut out = Vec::new();
+    for t in trials {
+        let pred = predict(t, model, settings).ok()?;
+        Residual::new(t, &pred).weighted_into(noise, &mut out);
+    }
+    Some(out)
+}
+
+/// Levenberg–Marquardt on the nominal parameters only (the effect's held at its value in
+/// `v`, a full parameter vector of `candidate`), at most about `budget` evaluations: where
+/// the nominal parameters go once the effect is on. The nominal fit has bent them to absorb
+/// the missing effect's signature (the support's place is the most sensitive), so an effect
+/// tried at the nominal optimum can look worse than none although it is there.
+pub fn refit_nominal(
+    candidate: Candidate,
+    base: &Model,
+    trials: &[TrialData],
+    settings: &SimSettings,
+    noise: &Noise,
+    v: &[f64],
+    budget: usize,
+) -> (Vec<f64>, f64) {
+    let params = candidate.params();
+    let k = super::candidates::NOMINAL.len();
+    let full = |x: &[f64]| -> Vec<f64> { x.iter().chain(&v[k..]).copied().collect() };
+    let res = |x: &[f64]| -> Option<Vec<f64>> {
+        residual_vector(trials, &candidate.apply(base, &clamp(&params, &full(x))), settings, noise)
+    };
+    let h: Vec<f64> = params[..k].iter().map(|p| p.step * 0.05).collect();
+    let (x, fx, _, _) = crate::ident::polish::levenberg_marquardt(&res, &v[..k], &h, budget);
+    (clamp(&params, &full(&x)), fx)
+}
+
 /// A fitted candidate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fit {
@@ -144,7 +188,7 @@ pub fn fit_where(
     noise: &Noise,
     starts: &[Vec<f64>],
     max_evals: usize,
-    admissible: &dyn Fn(&Model) -> bool,
+    admissible: &(dyn Fn(&Model) -> bool + Sync),
 ) -> Fit {
     let params = candidate.params();
     let mut evals = 0;
@@ -166,11 +210,46 @@ pub fn fit_where(
     let (x0, _) = best.expect("at least one start");
     let step: Vec<f64> = params.iter().map(|p| p.step).collect();
     let budget = max_evals.saturating_sub(starts.len()).max(params.len() + 2);
-    let (x, _, _) = nelder_mead(&mut eval, &x0, &step, budget);
+    // The simplex finds the basin, Levenberg–Marquardt on the residual vector finishes it
+    // (a sum of thousands of squares is nearly quadratic near its optimum; the simplex
+    // crawls there). LM gets what the simplex leaves, at least two iterations' worth.
+    let lm_budget = (budget / 2).max(2 * (params.len() + 5));
+    let (xn, fxn, used) = nelder_mead(&mut eval, &x0, &step, budget.saturating_sub(lm_budget));
+    let lm_budget = budget.saturating_sub(used).max(2 * (params.len() + 5));
+    let x = polish(candidate, base, trials, settings, noise, admissible, (xn, fxn), lm_budget);
+    evals += lm_budget;
     let values = clamp(&params, &x);
     let model = candidate.apply(base, &values);
     let (loss, n) = loss(trials, &model, settings, noise);
     Fit { candidate, values, model, loss, n, evals }
+}
+
+/// Levenberg–Marquardt ([`crate::ident::polish`]) on the noise-weighted residual vector from
+/// `from` (point and loss); returns the better of the two points.
+#[allow(clippy::too_many_arguments)]
+fn polish(
+    candidate: Candidate,
+    base: &Model,
+    trials: &[TrialData],
+    settings: &SimSettings,
+    noise: &Noise,
+    admissible: &(dyn Fn(&Model) -> bool + Sync),
+    from: (Vec<f64>, f64),
+    budget: usize,
+) -> Vec<f64> {
+    let params = candidate.params();
+    let res = |v: &[f64]| -> Option<Vec<f64>> {
+        let m = candidate.apply(base, &clamp(&params, v));
+        if !admissible(&m) {
+            return None;
+        }
+        residual_vector(trials, &m, settings, noise)
+    };
+    // Finite-difference steps well inside each parameter's scale, above the simulator's
+    // step-size graininess.
+    let h: Vec<f64> = params.iter().map(|p| p.step * 0.05).collect();
+    let (x, fx, _, _) = crate::ident::polish::levenberg_marquardt(&res, &from.0, &h, budget);
+    if fx < from.1 { x } else { from.0 }
 }
 
 #[cfg(test)]

@@ -7,9 +7,9 @@
 use super::data::TrialData;
 use crate::Error;
 use crate::effects::{Backlash, Effects, apply_scale_error, remove_scale_error, scale_pose};
-use crate::geom::{Pose, Vec2};
+use crate::geom::{ConvexPolygon, Pose, Vec2};
 use crate::sim::contact::closest_on_polygon;
-use crate::sim::{Model, PathSample, ProbePoint, SimSettings, Simulator, follow_path};
+use crate::sim::{Model, PathReplay, PathSample, ProbePoint, SimSettings, Simulator, follow_path};
 
 /// The predicted measurement of every frame of a trial.
 #[derive(Debug, Clone, PartialEq)]
@@ -94,24 +94,134 @@ pub fn tip_path(fx: &Effects, cmd: &[ProbePoint]) -> Vec<ProbePoint> {
     cmd.iter().map(|p| ProbePoint { t_s: p.t_s, probe_um: b.update(p.probe_um) }).collect()
 }
 
-/// Predicts every frame of `data` under `model` (its `effects` included).
+/// The probe counts as clear of the peg beyond this gap, µm: the peg rests there (pushing
+/// is quasi-static; an adhesive contact lets go within a few µm).
+const CLEAR_GAP_UM: f64 = 100.0;
+
+/// The probe (tip path) at `t_s`, linearly interpolated, clamped to the path's span.
+fn probe_at(path: &[ProbePoint], t_s: f64) -> Vec2 {
+    let i = path.partition_point(|p| p.t_s <= t_s);
+    if i == 0 {
+        return path[0].probe_um;
+    }
+    let Some(b) = path.get(i) else { return path[i - 1].probe_um };
+    let a = &path[i - 1];
+    let w = (t_s - a.t_s) / (b.t_s - a.t_s).max(1e-12);
+    a.probe_um + (b.probe_um - a.probe_um) * w
+}
+
+/// The frames the replay restarts from (multiple shooting): frame 0, and the last frame of
+/// every stretch in which the probe is clear of the measured peg before it comes back. The
+/// peg rests there, so a replay from its measured pose loses nothing; an error in a stroke
+/// then stays in that stroke instead of carrying the peg elsewhere for the rest of the trial
+/// (the fit's landscape stays smooth, e.g. in the support's place, to which a long replay
+/// is very sensitive).
+pub fn restart_frames(
+    data: &TrialData,
+    path: &[ProbePoint],
+    polygon: &ConvexPolygon,
+) -> (Vec<usize>, Vec<bool>) {
+    let clear: Vec<bool> = data
+        .frames
+        .iter()
+        .map(|f| {
+            let p = probe_at(path, f.t_s);
+            closest_on_polygon(&polygon.transformed(&f.pose), &p).0 > CLEAR_GAP_UM
+        })
+        .collect();
+    let mut out = vec![0];
+    out.extend((1..clear.len().saturating_sub(1)).filter(|&k| clear[k] && !clear[k + 1]));
+    (out, clear)
+}
+
+/// Frames averaged for a restart pose: the tracker's noise in one frame would stay in the
+/// whole stroke as an offset; the peg rests while the probe is clear, so the mean of the
+/// last few clear frames is the better start.
+const RESTART_FRAMES: usize = 8;
+
+/// The measured pose to restart from at frame `k`: the mean over the clear frames up to
+/// [`RESTART_FRAMES`] back (frame `k` alone when it is not clear, as frame 0 may be).
+fn rest_pose(data: &TrialData, clear: &[bool], k: usize) -> Pose {
+    let mut n = 0.0;
+    let (mut x, mut y, mut th) = (0.0, 0.0, 0.0);
+    for j in (k.saturating_sub(RESTART_FRAMES - 1)..=k).rev() {
+        if !clear[j] {
+            break;
+        }
+        let p = data.frames[j].pose;
+        (x, y, th, n) = (x + p.x_um, y + p.y_um, th + p.theta_rad, n + 1.0);
+    }
+    if n == 0.0 { data.frames[k].pose } else { Pose::new(x / n, y / n, th / n) }
+}
+
+/// The path between `t0_s` and `t1_s`: the probe interpolated at `t0_s`, then every point
+/// after it up to and including `t1_s`.
+fn sub_path(path: &[ProbePoint], t0_s: f64, t1_s: f64) -> Vec<ProbePoint> {
+    let mut out = vec![ProbePoint { t_s: t0_s, probe_um: probe_at(path, t0_s) }];
+    out.extend(path.iter().filter(|p| p.t_s > t0_s && p.t_s <= t1_s).copied());
+    out
+}
+
+/// Predicts every frame of `data` under `model` (its `effects` included), the replay
+/// restarted from the measured pose whenever the probe has been clear of the peg
+/// ([`restart_frames`]).
 pub fn predict(
     data: &TrialData,
     model: &Model,
     settings: &SimSettings,
 ) -> Result<Prediction, Error> {
+    predict_with(data, model, settings, true)
+}
+
+/// Predicts every frame of `data` under `model` in one replay from the first frame's pose:
+/// what a generator of trials needs (its frames are not measured yet).
+pub fn predict_open_loop(
+    data: &TrialData,
+    model: &Model,
+    settings: &SimSettings,
+) -> Result<Prediction, Error> {
+    predict_with(data, model, settings, false)
+}
+
+fn predict_with(
+    data: &TrialData,
+    model: &Model,
+    settings: &SimSettings,
+    restarts: bool,
+) -> Result<Prediction, Error> {
     let fx = &model.effects;
     let m = model_for_trial(model, data);
     let path = tip_path(fx, &data.cmd);
-    let first = data.frames[0].pose;
-    let c = remove_scale_error(first.position(), fx.scale_error, fx.scale_origin_um);
-    // The angle's aspect distortion is second order (< 1e-4 rad at 3 %); ignored at the start.
-    let start = Pose::new(c.x, c.y, first.theta_rad);
     let mut sim = Simulator::new(m, data.fixture.clone(), settings.clone())?;
     let compliance_um = sim.settings().probe_compliance_um;
-    let replay = follow_path(&mut sim, start, &path)?;
-    let latency_s = fx.camera_latency_us * 1e-6;
     let polygon = sim.model().part.polygon().clone();
+    let mut replay = PathReplay { samples: Vec::new(), jams: 0, steps: 0, lcp_solves: 0 };
+    let (starts, clear) = if restarts {
+        restart_frames(data, &path, &polygon)
+    } else {
+        (vec![0], vec![false; data.frames.len()])
+    };
+    for (i, &k) in starts.iter().enumerate() {
+        let t0 = data.frames[k].t_s;
+        let t1 = starts.get(i + 1).map_or(f64::INFINITY, |&j| data.frames[j].t_s);
+        let seg = sub_path(&path, t0, t1);
+        if seg.len() < 2 {
+            continue;
+        }
+        let at = rest_pose(data, &clear, k);
+        let c = remove_scale_error(at.position(), fx.scale_error, fx.scale_origin_um);
+        // The angle's aspect distortion is second order (< 1e-4 rad at 3 %); ignored here.
+        if i > 0 {
+            sim = Simulator::new(sim.model().clone(), data.fixture.clone(), settings.clone())?;
+        }
+        let r = follow_path(&mut sim, Pose::new(c.x, c.y, at.theta_rad), &seg)?;
+        replay.jams += r.jams;
+        replay.samples.extend(r.samples);
+    }
+    if replay.samples.is_empty() {
+        return Err(Error::invalid("diagnose", format!("trial {} has no probe path", data.id)));
+    }
+    let latency_s = fx.camera_latency_us * 1e-6;
     let n = data.frames.len();
     let mut out = Prediction {
         poses: Vec::with_capacity(n),

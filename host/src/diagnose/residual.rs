@@ -20,27 +20,97 @@ pub struct Noise {
 }
 
 /// Robust σ of white noise from second differences: median |Δ²| · 1.4826 / √6.
-fn sigma_from_second_differences(v: &[f64]) -> Option<f64> {
-    if v.len() < 5 {
+fn sigma_of(mut d: Vec<f64>) -> Option<f64> {
+    if d.len() < 3 {
         return None;
     }
-    let mut d: Vec<f64> = v.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
     d.sort_by(f64::total_cmp);
     Some(d[d.len() / 2] * 1.4826 / 6f64.sqrt())
 }
 
-fn pooled(series: impl Iterator<Item = Vec<f64>>) -> Option<f64> {
-    let s: Vec<f64> = series.filter_map(|v| sigma_from_second_differences(&v)).collect();
+/// The σ of one series' noise: from every window's second difference, unless the series
+/// repeats itself exactly at rest (a third of its windows or more with a second difference
+/// of exactly zero: a deterministic tracker on a noise-free image gives the same pose for
+/// the same picture), then from the windows where the object moves steadily (`moving[k]`
+/// for the window centred on frame k + 1), where its place on the pixel grid changes and
+/// the tracker's error shows. A real camera's sensor noise shows at rest, and there most
+/// frames of a trial are.
+fn sigma_series(v: &[f64], moving: &[bool]) -> Option<f64> {
+    let d2: Vec<f64> = v.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
+    let scale = v.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1.0);
+    let repeats = d2.iter().filter(|d| **d <= 1e-12 * scale).count();
+    if 3 * repeats < d2.len() {
+        return sigma_of(d2);
+    }
+    sigma_of(d2.iter().zip(moving).filter(|(_, m)| **m).map(|(d, _)| *d).collect())
+}
+
+/// Pools per-series σ estimates (root mean square).
+fn pooled(series: impl Iterator<Item = (Vec<f64>, Vec<bool>)>) -> Option<f64> {
+    let s: Vec<f64> = series.filter_map(|(v, m)| sigma_series(&v, &m)).collect();
     (!s.is_empty()).then(|| (s.iter().map(|x| x * x).sum::<f64>() / s.len() as f64).sqrt())
+}
+
+/// Per window of three frames (centred on frame k + 1): whether `pos` moved by more than
+/// `thr` (a step no noise makes) in both of its frame steps (the object moves through the
+/// whole window: no contact onset or stop inside it).
+fn moving_windows(pos: &[Vec2], thr: f64) -> Vec<bool> {
+    pos.windows(3).map(|w| (w[1] - w[0]).norm() > thr && (w[2] - w[1]).norm() > thr).collect()
+}
+
+/// Margin around a window in which the command must not change, s: covers a camera's
+/// timestamp latency (up to ~100 ms) and the stage's response.
+const STEADY_MARGIN_S: f64 = 0.12;
+
+/// Whether the commanded probe velocity is one and the same (within 5 %, not zero) over
+/// `[t0_s − margin, t1_s + margin]`: a quasi-static push at a steady command moves the peg
+/// smoothly, so the second differences there are the tracker's, not the motion's (contact
+/// onset, release and reversals change the peg's velocity within a frame).
+fn steady_command(cmd: &[crate::sim::ProbePoint], t0_s: f64, t1_s: f64) -> bool {
+    let (a, b) = (t0_s - STEADY_MARGIN_S, t1_s + STEADY_MARGIN_S);
+    let i0 = cmd.partition_point(|p| p.t_s <= a).max(1);
+    let i1 = cmd.partition_point(|p| p.t_s < b);
+    if i0 >= cmd.len() || i1 >= cmd.len() {
+        return false;
+    }
+    let vel = |i: usize| {
+        let dt = cmd[i].t_s - cmd[i - 1].t_s;
+        (dt > 0.0).then(|| (cmd[i].probe_um - cmd[i - 1].probe_um) / dt)
+    };
+    let Some(v0) = vel(i0) else { return false };
+    if v0.norm() < 1.0 {
+        return false;
+    }
+    (i0..=i1).all(|i| vel(i).is_none_or(|v| (v - v0).norm() <= 0.05 * v0.norm()))
+}
+
+/// Per window of three frames of `t`: whether the peg moves (see [`moving_windows`]) under
+/// a steady command.
+fn steady_peg_windows(t: &TrialData, thr: f64) -> Vec<bool> {
+    let pos: Vec<Vec2> = t.frames.iter().map(|m| m.pose.position()).collect();
+    moving_windows(&pos, thr)
+        .into_iter()
+        .zip(t.frames.windows(3))
+        .map(|(m, w)| m && steady_command(&t.cmd, w[0].t_s, w[2].t_s))
+        .collect()
 }
 
 impl Noise {
     /// The measurement floor of a batch, from the measured series themselves (the motion is
-    /// smooth at 30 Hz, the tracker's noise is not).
+    /// smooth at 30 Hz, the tracker's noise is not): second differences over all frames, or,
+    /// for a tracker that repeats itself exactly at rest, over the frames where the peg (for
+    /// the pose channels) or the tip (for the tip channel) moves under a steady command —
+    /// see [`sigma_series`] and [`steady_command`]. No simulator and no declared noise enter.
     pub fn estimate(trials: &[TrialData]) -> Self {
-        let ch = |f: &dyn Fn(&super::data::Measured) -> Option<f64>| {
-            pooled(trials.iter().map(|t| t.frames.iter().filter_map(f).collect::<Vec<f64>>()))
-        };
+        // Moving: more than 1 µm per frame step (a tracker's noise is well below, a push at
+        // ≥ 30 µm/s filmed at ≤ 30 Hz is above).
+        const MOVE_UM: f64 = 1.0;
+        let ch =
+            |f: &dyn Fn(&super::data::Measured) -> Option<f64>| {
+                pooled(trials.iter().map(|t| {
+                    (t.frames.iter().filter_map(f).collect(), steady_peg_windows(t, MOVE_UM))
+                }))
+            };
         let x = ch(&|m| Some(m.pose.x_um));
         let y = ch(&|m| Some(m.pose.y_um));
         let xy = match (x, y) {
@@ -48,9 +118,20 @@ impl Noise {
             _ => 1.0,
         };
         let th = ch(&|m| Some(m.pose.theta_rad)).unwrap_or(1e-3);
-        let tx = ch(&|m| m.tip_um.map(|t| t.x));
-        let ty = ch(&|m| m.tip_um.map(|t| t.y));
-        let tip = match (tx, ty) {
+        let tip_ch = |f: &dyn Fn(&Vec2) -> f64| {
+            pooled(trials.iter().filter(|t| t.has_tips()).map(|t| {
+                let tips: Vec<(f64, Vec2)> =
+                    t.frames.iter().filter_map(|m| m.tip_um.map(|p| (m.t_s, p))).collect();
+                let pos: Vec<Vec2> = tips.iter().map(|p| p.1).collect();
+                let steady = moving_windows(&pos, MOVE_UM)
+                    .into_iter()
+                    .zip(tips.windows(3))
+                    .map(|(m, w)| m && steady_command(&t.cmd, w[0].0, w[2].0))
+                    .collect();
+                (pos.iter().map(f).collect(), steady)
+            }))
+        };
+        let tip = match (tip_ch(&|p| p.x), tip_ch(&|p| p.y)) {
             (Some(a), Some(b)) => ((a * a + b * b) / 2.0).sqrt(),
             _ => xy,
         };
@@ -135,6 +216,22 @@ impl Residual {
         Self { frames }
     }
 
+    /// Appends every residual scalar divided by its channel's noise σ (peg x, y, θ, then the
+    /// imaged tip x, y where imaged), frame by frame: the vector whose sum of squares is
+    /// [`Residual::weighted_sse`].
+    pub fn weighted_into(&self, noise: &Noise, out: &mut Vec<f64>) {
+        for f in &self.frames {
+            out.extend([
+                f.peg[0] / noise.xy_um,
+                f.peg[1] / noise.xy_um,
+                f.peg[2] / noise.theta_rad,
+            ]);
+            if let Some(t) = f.tip {
+                out.extend([t[0] / noise.tip_um, t[1] / noise.tip_um]);
+            }
+        }
+    }
+
     /// Σ squared residuals over noise variances, and how many scalars entered.
     pub fn weighted_sse(&self, noise: &Noise) -> (f64, usize) {
         let (wxy, wth, wtip) =
@@ -187,5 +284,78 @@ impl Mse {
         let peg =
             self.xy_um2 / (2.0 * noise.xy_um.powi(2)) + self.theta_rad2 / noise.theta_rad.powi(2);
         peg + if with_tip { self.tip_um2 / (2.0 * noise.tip_um.powi(2)) } else { 0.0 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::data::{Measured, open_plate};
+    use crate::geom::Pose;
+    use rand::{RngExt, SeedableRng};
+
+    /// A tracker whose error depends only on where the peg lies (a rendered image: the same
+    /// picture gives the same pose): exact repeats while the peg rests, an error of σ once
+    /// it moves across pixels.
+    fn rendered_like(sigma: f64, seed: u64) -> TrialData {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut frames = Vec::new();
+        let mut x = 1000.0;
+        for k in 0..300 {
+            let moving = (k / 50) % 2 == 1;
+            if moving {
+                x += 10.0;
+            }
+            // A bias fixed by the place: drawn afresh for each new place, repeated at rest.
+            let bias = if moving || k == 0 {
+                let u: f64 = rng.random_range(-1.0..1.0);
+                u * sigma * 3f64.sqrt()
+            } else {
+                frames.last().map_or(0.0, |f: &Measured| f.pose.x_um - x)
+            };
+            frames.push(Measured {
+                t_s: k as f64 / 30.0,
+                pose: Pose::new(x + bias, 800.0 + bias, 0.0),
+                tip_um: None,
+            });
+        }
+        // A steady command throughout (300 µm/s along x, 100 Hz setpoints).
+        let cmd = (0..=1100)
+            .map(|i| crate::sim::ProbePoint {
+                t_s: i as f64 * 0.01,
+                probe_um: crate::geom::Vec2::new(3.0 * i as f64, 0.0),
+            })
+            .collect();
+        TrialData {
+            id: format!("t{seed}"),
+            index: seed as usize,
+            part: crate::sim::Model::default().part,
+            probe_radius_um: 12.5,
+            fixture: open_plate(),
+            cmd,
+            frames,
+        }
+    }
+
+    /// Caught by the full-loop backlash batch: a peg at rest in a rendered image tracks
+    /// identically frame to frame, the median second difference over all frames was ~0 and
+    /// the floor 6× too low, so a model mismatch looked significant.
+    #[test]
+    fn the_floor_of_a_tracker_that_repeats_at_rest_comes_from_the_moving_frames() {
+        let trials: Vec<TrialData> = (0..4).map(|s| rendered_like(0.5, s)).collect();
+        let n = Noise::estimate(&trials);
+        assert!((0.35..0.7).contains(&n.xy_um), "floor {} µm, true 0.5", n.xy_um);
+    }
+
+    #[test]
+    fn the_floor_of_white_noise_at_rest_is_its_sigma() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut t = rendered_like(0.0, 0);
+        for f in &mut t.frames {
+            f.pose.x_um += 0.3 * (rng.random_range(-1.0f64..1.0) * 3f64.sqrt());
+            f.pose.y_um += 0.3 * (rng.random_range(-1.0f64..1.0) * 3f64.sqrt());
+        }
+        let n = Noise::estimate(&[t]);
+        assert!((0.22..0.4).contains(&n.xy_um), "floor {} µm, true 0.3", n.xy_um);
     }
 }

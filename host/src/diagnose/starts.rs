@@ -14,7 +14,7 @@
 
 use super::candidates::Candidate;
 use super::data::TrialData;
-use super::fit::fit;
+use super::fit::{loss, refit_nominal};
 use super::residual::Noise;
 use crate::sim::{Model, SimSettings};
 
@@ -38,12 +38,38 @@ pub fn starts(
     train: &[TrialData],
     ctx: &StartContext<'_>,
 ) -> Vec<Vec<f64>> {
+    let mut out = signature_starts(c, nominal, train, ctx);
+    // The effect off (its parameters at zero; a patch as wide as the plate with the nominal
+    // friction): the extended model nests the nominal one, so its fit is never worse.
+    out.push(off(c, nominal));
+    out
+}
+
+/// The full parameter vector of `c` with its effect off at the nominal optimum.
+fn off(c: Candidate, nominal: &[f64]) -> Vec<f64> {
+    let mut v: Vec<f64> = nominal.to_vec();
+    if c == Candidate::FrictionPatch {
+        let p = c.effect_params();
+        v.extend([nominal[1], p[1].lo, p[2].lo, p[3].hi, p[4].hi]);
+    } else {
+        v.extend(c.effect_params().iter().map(|_| 0.0));
+    }
+    v
+}
+
+fn signature_starts(
+    c: Candidate,
+    nominal: &[f64],
+    train: &[TrialData],
+    ctx: &StartContext<'_>,
+) -> Vec<Vec<f64>> {
     match c {
         Candidate::FrictionPatch => patch_starts(nominal, train),
+        Candidate::SpeedFriction => profile_starts(c, grid_starts(c, nominal), train, ctx),
         Candidate::SupportDrift => {
             let mut s = drift_starts(nominal, train);
             s.extend(drift_trend_start(nominal, train, ctx));
-            s
+            profile_starts(c, s, train, ctx)
         }
         _ => grid_starts(c, nominal),
     }
@@ -57,21 +83,11 @@ fn drift_trend_start(
     train: &[TrialData],
     ctx: &StartContext<'_>,
 ) -> Option<Vec<f64>> {
-    let (s, noise) = (ctx.settings, ctx.noise);
     let per: Vec<(f64, [f64; 2])> = train
         .iter()
         .map(|t| {
-            let one = std::slice::from_ref(t);
-            let f = fit(
-                Candidate::Nominal,
-                ctx.base,
-                one,
-                s,
-                noise,
-                &[nominal.to_vec()],
-                ctx.evals_per_trial,
-            );
-            (t.index as f64, [f.values[2], f.values[3]])
+            let v = trial_support(nominal, std::slice::from_ref(t), ctx);
+            (t.index as f64, [v[2], v[3]])
         })
         .collect();
     let n = per.len() as f64;
@@ -88,6 +104,62 @@ fn drift_trend_start(
         v.push(slope);
     }
     Some(v)
+}
+
+/// Support offsets (µm) one trial's own support search tries before refining: a drift of
+/// 10–25 µm per trial puts a trial's support up to ~100 µm from the batch's average, far
+/// outside the few-µm basin a local search sees (the support's place is the most sensitive
+/// parameter of the model).
+const SUPPORT_SCAN_UM: [[f64; 2]; 11] = [
+    [0.0, 0.0],
+    [40.0, 0.0],
+    [-40.0, 0.0],
+    [80.0, 0.0],
+    [-80.0, 0.0],
+    [120.0, 0.0],
+    [-120.0, 0.0],
+    [0.0, 40.0],
+    [0.0, -40.0],
+    [0.0, 80.0],
+    [0.0, -80.0],
+];
+
+/// The nominal parameters fitted to `trials` alone: the support offsets of
+/// [`SUPPORT_SCAN_UM`] about `nominal`'s, then Levenberg–Marquardt from the best.
+fn trial_support(nominal: &[f64], trials: &[TrialData], ctx: &StartContext<'_>) -> Vec<f64> {
+    let c = Candidate::Nominal;
+    let best = SUPPORT_SCAN_UM
+        .iter()
+        .map(|[dx, dy]| {
+            let mut v = nominal[..4].to_vec();
+            v[2] += dx;
+            v[3] += dy;
+            let l = loss(trials, &c.apply(ctx.base, &v), ctx.settings, ctx.noise).0;
+            (v, l)
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|p| p.0)
+        .unwrap_or_else(|| nominal[..4].to_vec());
+    refit_nominal(c, ctx.base, trials, ctx.settings, ctx.noise, &best, ctx.evals_per_trial).0
+}
+
+/// Profile starts: `out` and, for each of its starts, the nominal parameters refitted with
+/// the effect held there — the nominal optimum has absorbed what
+/// it could of the effect, and the effect at that optimum can look worse than none.
+fn profile_starts(
+    c: Candidate,
+    mut out: Vec<Vec<f64>>,
+    train: &[TrialData],
+    ctx: &StartContext<'_>,
+) -> Vec<Vec<f64>> {
+    let profiled: Vec<Vec<f64>> = out
+        .iter()
+        .map(|v| {
+            refit_nominal(c, ctx.base, train, ctx.settings, ctx.noise, v, ctx.evals_per_trial).0
+        })
+        .collect();
+    out.extend(profiled);
+    out
 }
 
 fn grid_starts(c: Candidate, nominal: &[f64]) -> Vec<Vec<f64>> {

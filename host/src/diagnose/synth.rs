@@ -11,7 +11,7 @@
 
 use super::candidates::Candidate;
 use super::data::{Measured, TrialData, open_plate};
-use super::predict::predict;
+use super::predict::predict_open_loop;
 use crate::Error;
 use crate::effects::{Adhesion, Effects, FrictionPatch, SpeedFriction, SupportDrift};
 use crate::geom::{Pose, Vec2};
@@ -229,7 +229,7 @@ pub fn write_trial(
         cmd: cmd.clone(),
         frames,
     };
-    let pred = predict(&data, truth, &SimSettings::default())?;
+    let pred = predict_open_loop(&data, truth, &SimSettings::default())?;
     let mut meta = TrialMeta::new(id, "mesopush-synth", truth.part.clone());
     meta.probe_radius_um = truth.probe_radius_um;
     meta.frame_period_us = Some(FRAME_US as u64);
