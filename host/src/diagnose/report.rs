@@ -21,7 +21,15 @@ pub fn text(d: &Diagnosis) -> String {
     let mut s = String::new();
     let verdict = match d.verdict {
         Verdict::Effect => format!("effect: {}", d.best.candidate.name()),
-        Verdict::Unexplained => "unexplained: no library effect explains the residual".into(),
+        Verdict::Unexplained => match d.ambiguous_with {
+            Some((a, b)) => format!(
+                "unexplained: {} and {} fit the held-out trials about as well, and neither \
+                 reaches the floor; no single library effect explains the residual",
+                a.name(),
+                b.name()
+            ),
+            None => "unexplained: no library effect explains the residual".into(),
+        },
         Verdict::None => {
             "none: the residual is at the measurement floor; no missing effect found".into()
         }
@@ -73,6 +81,7 @@ pub fn json(d: &Diagnosis) -> Value {
         "verdict": d.verdict,
         "effect": d.effect.map(|e| e.name()),
         "signature": d.effect.map(|e| e.signature()),
+        "ambiguous_with": d.ambiguous_with.map(|(a, b)| [a.name(), b.name()]),
         "parameters": params,
         "mse_before": {"xy_um2": b.xy_um2, "theta_rad2": b.theta_rad2, "tip_um2": b.tip_um2},
         "mse_after": {"xy_um2": a.xy_um2, "theta_rad2": a.theta_rad2, "tip_um2": a.tip_um2},
