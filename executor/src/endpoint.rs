@@ -87,6 +87,11 @@ impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S
         &self.ctrl_link
     }
 
+    /// The host link (statistics).
+    pub fn host_link(&self) -> &Link<ExecToHost, HostToExec, W> {
+        &self.host_link
+    }
+
     /// Bytes from the host line.
     pub fn on_host_bytes(
         &mut self,

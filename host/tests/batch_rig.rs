@@ -112,6 +112,7 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
     assert!(c.camera.detected * 10 >= c.camera.injected * 9, "seed {seed}: {c:?}");
     assert!(c.controller.detected * 10 >= c.controller.injected * 9, "seed {seed}: {c:?}");
     assert!(c.exec_ctrl_link.detected > 0 && c.host_exec_link.injected > 0, "seed {seed}");
+    assert!(c.host_exec_link.detected > 0, "host link faults unseen, seed {seed}");
     let (mut judged, mut unjudged, mut jammed) = (0, 0, 0);
     for a in loaded.finals().values() {
         let r = &a.result;

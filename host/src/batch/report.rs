@@ -144,7 +144,7 @@ fn faults_and_reasons(m: &mut String, s: &Summary) {
         ("camera (dropped, black frames)", c.camera),
         ("controller (stall, limit switch, reboot)", c.controller),
         ("executor-controller link (detections are link events)", c.exec_ctrl_link),
-        ("host-executor link (detections not observed)", c.host_exec_link),
+        ("host-executor link (detections are link events)", c.host_exec_link),
     ] {
         let _ = writeln!(m, "| {name} | {} | {} |", f.injected, f.detected);
     }

@@ -15,9 +15,9 @@
 //!   gap by the receiver and as a retransmission by the sender, and a retransmission can
 //!   itself arrive as a duplicate, so `detected` exceeds `injected` here; a class with
 //!   `detected` < `injected` would mean faults passed unseen.
-//! - `host_exec_link`: the same on the two lines between host and executor. The host
-//!   session's and the executor's host-link counters are not reachable from `host::rig`,
-//!   so `detected` stays 0 for this class (injected is still counted).
+//! - `host_exec_link`: the same on the two lines between host and executor, detected by
+//!   both ends (the executor's host link and the host session's link), since both are
+//!   ours: link events again, not faults.
 
 use serde::{Deserialize, Serialize};
 
@@ -47,7 +47,7 @@ pub struct FaultClasses {
     pub controller: FaultCount,
     /// Link faults between executor and controller.
     pub exec_ctrl_link: FaultCount,
-    /// Link faults between host and executor (detections not observable here).
+    /// Link faults between host and executor.
     pub host_exec_link: FaultCount,
 }
 

@@ -10,7 +10,7 @@ use mesopush_protocol::flash::{FlashHeader, PlanStep, image_chunks};
 use mesopush_protocol::host::{
     CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, TrialEventKind,
 };
-use mesopush_protocol::{FRAME_BUF_LEN, FrameReader, Link, LinkConfig, encode_frame};
+use mesopush_protocol::{FRAME_BUF_LEN, FrameReader, Link, LinkConfig, LinkStats, encode_frame};
 use std::collections::VecDeque;
 
 /// Link window of the host line.
@@ -119,6 +119,11 @@ impl HostSession {
             outbox: VecDeque::new(),
             inbox: Vec::new(),
         })
+    }
+
+    /// The host end's link counters (corrupt frames, duplicates, retransmissions, ...).
+    pub fn link_stats(&self) -> LinkStats {
+        self.link.stats()
     }
 
     /// The plan's id.

@@ -16,7 +16,7 @@ use mesopush_executor::{CameraFrame, Executor, ExecutorConfig, LogEvent, MemStor
 use mesopush_firmware_sim::camera::SimCamera;
 use mesopush_firmware_sim::line::SimLine;
 use mesopush_firmware_sim::{ControllerNode, FaultConfig, NodeEvent, SimRng, World};
-use mesopush_protocol::{FRAME_BUF_LEN, LinkConfig};
+use mesopush_protocol::{FRAME_BUF_LEN, LinkConfig, LinkStats};
 
 /// Plan memory of the executor: 4096 steps.
 pub const CAP: usize = 12 * 4096;
@@ -274,8 +274,7 @@ impl SimLoop {
                 )
             })
             .count() as u64;
-        let link = self.exec.ctrl_link().stats();
-        let seen = link.corrupt + link.duplicates + link.out_of_order + link.retransmissions;
+        let seen = |l: LinkStats| l.corrupt + l.duplicates + l.out_of_order + l.retransmissions;
         FaultClasses {
             camera: FaultCount {
                 injected: self.camera.dropped + self.camera.black,
@@ -284,11 +283,11 @@ impl SimLoop {
             controller: FaultCount { injected: stage, detected: 0 },
             exec_ctrl_link: FaultCount {
                 injected: line(&self.lines[0]) + line(&self.lines[1]),
-                detected: seen,
+                detected: seen(self.exec.ctrl_link().stats()),
             },
             host_exec_link: FaultCount {
                 injected: line(&self.lines[2]) + line(&self.lines[3]),
-                detected: 0,
+                detected: seen(self.exec.host_link().stats()) + seen(self.host.link_stats()),
             },
         }
     }
