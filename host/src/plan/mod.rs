@@ -16,6 +16,7 @@ pub mod tree;
 pub use rrt::{Progress, RrtResult, RrtSettings, plan_is_feasible, plan_rrt};
 pub mod montecarlo;
 pub mod sampler;
+pub mod shard;
 pub mod wilson;
 
 pub use montecarlo::{Estimate, MonteCarlo, Trial};

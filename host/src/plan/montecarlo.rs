@@ -12,10 +12,10 @@ use crate::geom::Pose;
 use crate::sim::{Fixture, Model, Plan, SimSettings, Simulator, SupportDistribution, replay};
 use rand::SeedableRng;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// One trial's result.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Trial {
     /// The world it ran in.
     pub draw: Draw,
@@ -73,10 +73,23 @@ pub fn draws(
     n: usize,
     seed: u64,
 ) -> Vec<Draw> {
-    (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(trial_seed(seed, i as u64));
+    let all: Vec<u64> = (0..n as u64).collect();
+    draws_at(model, unc, supports, &all, seed)
+}
+
+/// The worlds of trials `indices` under `seed`: the same draws as [`draws`] gives those
+/// indices, so a shard of a run is that run's trials.
+pub fn draws_at(
+    model: &Model,
+    unc: &Uncertainty,
+    supports: &[SupportDistribution],
+    indices: &[u64],
+    seed: u64,
+) -> Vec<Draw> {
+    indices
+        .par_iter()
+        .map(|&i| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(trial_seed(seed, i));
             draw(model, unc, supports, &mut rng)
         })
         .collect()
@@ -152,6 +165,19 @@ impl MonteCarlo<'_> {
         self.model.validate()?;
         let worlds = draws(self.model, &self.uncertainty, self.supports, samples, seed);
         evaluate(self.plan, &worlds, self.fixture, self.settings, tick)
+    }
+
+    /// Trials `indices` of the run seeded `seed` (each identical to that trial of
+    /// [`MonteCarlo::estimate`]), in the order given.
+    pub fn trials_at(
+        &self,
+        indices: &[u64],
+        seed: u64,
+        tick: &(dyn Fn() + Sync),
+    ) -> Result<Vec<Trial>, Error> {
+        self.model.validate()?;
+        let worlds = draws_at(self.model, &self.uncertainty, self.supports, indices, seed);
+        Ok(evaluate(self.plan, &worlds, self.fixture, self.settings, tick)?.trials)
     }
 }
 

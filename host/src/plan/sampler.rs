@@ -46,7 +46,7 @@ impl Uncertainty {
 }
 
 /// One draw: the world a single Monte Carlo trial runs in.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Draw {
     /// Start pose offset from the plan's nominal start: (µm, µm, degrees).
     pub offset: [f64; 3],
