@@ -100,7 +100,7 @@ impl Noise {
     /// smooth at 30 Hz, the tracker's noise is not): second differences over all frames, or,
     /// for a tracker that repeats itself exactly at rest, over the frames where the peg (for
     /// the pose channels) or the tip (for the tip channel) moves under a steady command —
-    /// see [`sigma_series`] and [`steady_command`]. No simulator and no declared noise enter.
+    /// see `sigma_series` and `steady_command`. No simulator and no declared noise enter.
     pub fn estimate(trials: &[TrialData]) -> Self {
         // Moving: more than 1 µm per frame step (a tracker's noise is well below, a push at
         // ≥ 30 µm/s filmed at ≤ 30 Hz is above).
