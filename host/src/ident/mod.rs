@@ -15,6 +15,7 @@ pub mod polish;
 pub mod report;
 pub mod sample;
 pub mod score;
+pub mod shard;
 pub mod sweep;
 pub mod synth;
 
@@ -64,6 +65,18 @@ pub fn identify(
     ticks: &Ticks<'_>,
 ) -> Result<Report, Error> {
     let sw = sweep(trials, &settings.sweep, &settings.score, rng, ticks.sweep)?;
+    identify_from(trials, sw, settings, rng, ticks)
+}
+
+/// [`identify`] from a sweep already made (e.g. merged from shards, `ident::shard`); `rng`
+/// must be where [`identify`]'s is after the sweep (past `sweep::grid`'s draws).
+pub fn identify_from(
+    trials: &[IdentTrial],
+    sw: Sweep,
+    settings: &IdentifySettings,
+    rng: &mut impl Rng,
+    ticks: &Ticks<'_>,
+) -> Result<Report, Error> {
     if !sw.total_sse_um2(sw.nominal()).is_finite() {
         return Err(Error::invalid(
             "identify",

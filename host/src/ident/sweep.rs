@@ -150,15 +150,43 @@ pub fn sweep(
     rng: &mut impl Rng,
     tick: &(dyn Fn() + Sync),
 ) -> Result<Sweep, Error> {
+    let (mus, supports) = grid(trials, settings, rng)?;
+    let n = mus.len() * supports.len();
+    let all: Vec<usize> = (0..n).collect();
+    let flat = score_jobs(trials, &mus, &supports, score_settings, &all, tick);
+    let scores = flat.chunks(n).map(<[Score]>::to_vec).collect();
+    Ok(Sweep { mus, supports, scores })
+}
+
+/// The sweep's μ grid and its random supports (the only draws the sweep makes from `rng`).
+pub fn grid(
+    trials: &[IdentTrial],
+    settings: &SweepSettings,
+    rng: &mut impl Rng,
+) -> Result<(Vec<f64>, Vec<SupportDistribution>), Error> {
     check_same_part(trials)?;
     let mus = settings.mus()?;
     let part = trials[0].part.polygon();
     let supports = sample_supports(part, settings.n_supports, settings.mu_surface, rng)?;
-    let n = mus.len() * supports.len();
-    let flat: Vec<Score> = (0..trials.len() * n)
+    Ok((mus, supports))
+}
+
+/// Scores candidates `ks` (candidate = μ index × supports + support index) on every trial:
+/// element `t · ks.len() + j` is candidate `ks[j]` on trial `t`. Each score is a pure
+/// function of (trial, candidate), so any split of the candidates gives the same numbers.
+pub fn score_jobs(
+    trials: &[IdentTrial],
+    mus: &[f64],
+    supports: &[SupportDistribution],
+    score_settings: &ScoreSettings,
+    ks: &[usize],
+    tick: &(dyn Fn() + Sync),
+) -> Vec<Score> {
+    let n = ks.len();
+    (0..trials.len() * n)
         .into_par_iter()
         .map(|job| {
-            let (t, k) = (job / n, job % n);
+            let (t, k) = (job / n, ks[job % n]);
             let c = Candidate {
                 mu_probe: mus[k / supports.len()],
                 support: supports[k % supports.len()].clone(),
@@ -167,7 +195,5 @@ pub fn sweep(
             tick();
             s
         })
-        .collect();
-    let scores = flat.chunks(n).map(<[Score]>::to_vec).collect();
-    Ok(Sweep { mus, supports, scores })
+        .collect()
 }

@@ -6,10 +6,14 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use mesopush_host::batch::Shard;
 use mesopush_host::geom::{ConvexPolygon, Vec2};
+use mesopush_host::ident::shard::{self, SweepKey, SweepShard};
+use mesopush_host::ident::sweep::{grid, score_jobs};
 use mesopush_host::ident::synth::{SynthSpec, demo_truth, hexagon, write_trials};
 use mesopush_host::ident::{
-    IdentTrial, IdentifySettings, OptimizeSettings, ScoreSettings, SweepSettings, Ticks, identify,
+    IdentTrial, IdentifySettings, OptimizeSettings, ScoreSettings, Sweep, SweepSettings, Ticks,
+    identify, identify_from,
 };
 use mesopush_host::plot::fig5::{Fig5Trial, draw_fig5};
 use mesopush_host::sim::{Model, Part, SimSettings};
@@ -76,6 +80,17 @@ pub(crate) struct IdentifyArgs {
     /// Probe speed of the synthetic trials, µm/s.
     #[arg(long, default_value_t = 200.0)]
     synth_speed_um_s: f64,
+    /// Score only the sweep's candidates k ≡ I (mod N) (`I/N`), write them to
+    /// `--sweep-out` and exit; `--sweep-from` merges the shards (docs/batch.md, Scale).
+    #[arg(long, value_name = "I/N", conflicts_with = "sweep_from")]
+    shard: Option<String>,
+    /// Where `--shard` writes its scores [default: runs/identify/sweep-shard-I-of-N.json].
+    #[arg(long, requires = "shard")]
+    sweep_out: Option<PathBuf>,
+    /// Take the sweep from these `--shard` outputs (same trials, seed and settings) instead
+    /// of running it; the rest (optimiser, report, model) runs as usual.
+    #[arg(long, num_args = 1.., value_name = "FILE")]
+    sweep_from: Option<Vec<PathBuf>>,
 }
 
 fn bar(n: u64, msg: &'static str, hidden: bool) -> ProgressBar {
@@ -150,6 +165,65 @@ fn synthesize(args: &IdentifyArgs, dir: &Path) -> Result<()> {
     Ok(())
 }
 
+fn sweep_key(args: &IdentifyArgs, trials: &[IdentTrial], s: &IdentifySettings) -> SweepKey {
+    SweepKey {
+        trials: trials.iter().map(|t| t.id.clone()).collect(),
+        seed: args.seed,
+        mu_step: s.sweep.mu_step,
+        mu_max: s.sweep.mu_max,
+        n_supports: s.sweep.n_supports,
+        mu_surface: s.sweep.mu_surface,
+        step_um: s.score.sim.step_um,
+        mu_wall: s.score.mu_wall,
+    }
+}
+
+/// `--shard I/N`: scores this shard's candidates and writes them.
+fn run_shard(
+    args: &IdentifyArgs,
+    trials: &[IdentTrial],
+    settings: &IdentifySettings,
+    shard: Shard,
+    rng: &mut impl rand::Rng,
+    tick: &(dyn Fn() + Sync),
+) -> Result<()> {
+    let (mus, supports) = grid(trials, &settings.sweep, rng)?;
+    let n = mus.len() * supports.len();
+    let ks = SweepShard::owned(shard, n);
+    let flat = score_jobs(trials, &mus, &supports, &settings.score, &ks, tick);
+    let key = sweep_key(args, trials, settings);
+    let file = SweepShard::new(key, shard, n, &ks, &flat);
+    let default = format!("runs/identify/sweep-{}.json", shard.dir_name());
+    let out = args.sweep_out.clone().unwrap_or_else(|| PathBuf::from(default));
+    write_parent(&out)?;
+    file.save(&out)?;
+    let v = json!({"shard": format!("{}/{}", shard.index, shard.count), "candidates": ks.len(),
+        "trials": trials.len(), "sweep_out": out});
+    if args.json {
+        println!("{v}")
+    } else {
+        println!("sweep shard written: {}", out.display())
+    }
+    Ok(())
+}
+
+/// `--sweep-from`: the sweep assembled from shard files (the grid re-drawn from the seed,
+/// which also leaves `rng` where the unsplit sweep leaves it).
+fn merged_sweep(
+    args: &IdentifyArgs,
+    trials: &[IdentTrial],
+    settings: &IdentifySettings,
+    rng: &mut impl rand::Rng,
+    paths: &[PathBuf],
+) -> Result<Sweep> {
+    let (mus, supports) = grid(trials, &settings.sweep, rng)?;
+    let files = paths
+        .iter()
+        .map(|p| SweepShard::load(p).map(|f| (p.clone(), f)))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(shard::merge(&files, &sweep_key(args, trials, settings), mus, supports)?)
+}
+
 fn settings(args: &IdentifyArgs) -> IdentifySettings {
     IdentifySettings {
         sweep: SweepSettings {
@@ -186,7 +260,10 @@ pub(crate) fn run(args: &IdentifyArgs) -> Result<()> {
         dirs.iter().map(|d| IdentTrial::load(d)).collect::<Result<_, _>>()?;
     let settings = settings(args);
     let mus = settings.sweep.mus()?.len();
-    let n_sweep = (trials.len() * mus * settings.sweep.n_supports) as u64;
+    let shard = args.shard.as_deref().map(Shard::parse).transpose()?;
+    let candidates = mus * settings.sweep.n_supports;
+    let candidates = shard.map_or(candidates, |s| SweepShard::owned(s, candidates).len());
+    let n_sweep = (trials.len() * candidates) as u64;
     let sweep_bar = bar(n_sweep, "sweep", args.json);
     let opt_bar = bar(
         if args.optimize { args.max_evals as u64 } else { 0 },
@@ -195,8 +272,19 @@ pub(crate) fn run(args: &IdentifyArgs) -> Result<()> {
     );
     let ticks = Ticks { sweep: &|| sweep_bar.inc(1), optimize: &|| opt_bar.inc(1) };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
+    if let Some(s) = shard {
+        let done = run_shard(args, &trials, &settings, s, &mut rng, ticks.sweep);
+        sweep_bar.finish_and_clear();
+        return done;
+    }
     let t0 = Instant::now();
-    let report = identify(&trials, &settings, &mut rng, &ticks)?;
+    let report = match &args.sweep_from {
+        None => identify(&trials, &settings, &mut rng, &ticks)?,
+        Some(paths) => {
+            let sw = merged_sweep(args, &trials, &settings, &mut rng, paths)?;
+            identify_from(&trials, sw, &settings, &mut rng, &ticks)?
+        }
+    };
     let runtime_s = t0.elapsed().as_secs_f64();
     sweep_bar.finish_and_clear();
     opt_bar.finish_and_clear();
