@@ -68,6 +68,23 @@ fn check_jams(ctx: &str, t: &Trial, dir: &Path, r: &TrialResult) -> bool {
     logged
 }
 
+/// Bound on the executor's stop after the controller's fault: its fault report crosses the
+/// faulty line (retransmitted if lost), or — rebooted, silent — the executor's controller
+/// silence watchdog (`ctrl_silence_us`, 100 ms) fires; 20 ms on top for the loop's steps and
+/// a retransmission. Measured worst (seed 21): 18.4 ms; printed by the test.
+const STOP_BOUND_US: i64 = 120_000;
+
+/// Time from the controller's own fault (`ctrl_fault`: a stall or limit switch it detected
+/// and reported) or its reboot to the executor's `fault` event — the executor commands the
+/// stop in the same call (docs/executor.md, Watchdogs) — when the trial has both.
+fn stop_latency_us(t: &Trial) -> Option<i64> {
+    let during: Vec<_> = t.events.iter().skip_while(|e| e.kind != "started").collect();
+    let cause =
+        during.iter().find(|e| matches!(e.kind.as_str(), "ctrl_fault" | "injected_reboot"))?;
+    let stop = during.iter().find(|e| e.kind == "fault" && e.t_us >= cause.t_us)?;
+    Some(stop.t_us - cause.t_us)
+}
+
 /// The truth's last pose inside the channel?
 fn truly_inserted(dir: &Path) -> bool {
     let truth = std::fs::read_to_string(dir.join("truth.csv")).unwrap();
@@ -114,6 +131,7 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
     assert!(c.exec_ctrl_link.detected > 0 && c.host_exec_link.injected > 0, "seed {seed}");
     assert!(c.host_exec_link.detected > 0, "host link faults unseen, seed {seed}");
     let (mut judged, mut unjudged, mut jammed) = (0, 0, 0);
+    let mut worst_stop_us = 0;
     for a in loaded.finals().values() {
         let r = &a.result;
         let ctx = format!("seed {seed}, {} attempt {}: {r:?}", a.trial_id, a.attempt);
@@ -134,6 +152,10 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
         }
         if r.verdict == Verdict::Faulted {
             assert!(t.events.iter().any(|e| e.kind == "fault"), "{ctx}: no fault event");
+            if let Some(us) = stop_latency_us(&t) {
+                worst_stop_us = worst_stop_us.max(us);
+                assert!(us <= STOP_BOUND_US, "{ctx}: stop {us} µs after the controller's fault");
+            }
         }
         if dir.join("truth.csv").exists() {
             jammed += u32::from(check_jams(&ctx, &t, &dir, r));
@@ -152,6 +174,7 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
     println!(
         "seed {seed}: {judged} judged, {unjudged} not judgeable (no clean frame after the end), {jammed} with a jam"
     );
+    println!("seed {seed}: worst stop after a controller fault or reboot: {worst_stop_us} µs");
     assert!(judged >= 150, "seed {seed}: only {judged} trials ran to a verdict");
     assert!(s.succeeded as f64 >= 0.8 * judged as f64, "seed {seed}: {} of {judged}", s.succeeded);
     let w = report::write(&merged, &merged.join("report")).unwrap();

@@ -15,7 +15,7 @@ use mesopush_executor::endpoint::Endpoint;
 use mesopush_executor::{CameraFrame, Executor, ExecutorConfig, LogEvent, MemStore};
 use mesopush_firmware_sim::camera::SimCamera;
 use mesopush_firmware_sim::line::SimLine;
-use mesopush_firmware_sim::{ControllerNode, FaultConfig, NodeEvent, SimRng, World};
+use mesopush_firmware_sim::{ControllerNode, CtrlEvent, FaultConfig, NodeEvent, SimRng, World};
 use mesopush_protocol::{FRAME_BUF_LEN, LinkConfig, LinkStats};
 
 /// Plan memory of the executor: 4096 steps.
@@ -225,6 +225,9 @@ impl SimLoop {
                 NodeEvent::Rebooted { .. } => "injected_reboot",
                 NodeEvent::LinkDown => "ctrl_link_down",
                 NodeEvent::OutboxOverflow => "ctrl_outbox_overflow",
+                // The controller's own fault (it halts the stage and reports it): where the
+                // executor's stop bound starts for a stall or a limit switch.
+                NodeEvent::Ctrl(CtrlEvent::Faulted(_)) => "ctrl_fault",
                 NodeEvent::Ctrl(_) => continue,
             };
             self.send(RecMsg::Event(t, kind.into(), format!("{e:?}")))?;
