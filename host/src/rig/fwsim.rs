@@ -57,7 +57,8 @@ const CAMERA_QUEUE: usize = 4;
 const RENDER_QUEUE: usize = 2;
 
 mod render;
-use render::{Deferred, Painter, RenderJob, bind_camera, render_frames, serve_camera};
+use super::painter::{Deferred, Painter};
+use render::{RenderJob, bind_camera, render_frames, serve_camera};
 
 /// What the simulator serves.
 #[derive(Debug, Clone)]

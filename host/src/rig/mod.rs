@@ -22,6 +22,7 @@ pub mod fwsim;
 pub mod hil;
 pub mod hostlink;
 pub mod needle;
+pub mod painter;
 pub mod pty;
 pub mod realtime;
 pub mod recorder;

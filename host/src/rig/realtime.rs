@@ -10,11 +10,13 @@
 //! faults (stall, limit switch, reboot) and camera drops are.
 
 use super::ctrl_serve::ServedController;
+use super::painter::Deferred;
 use super::pty::PtyLine;
 use super::recorder::RecMsg;
 use super::session::{HostSession, SessionGoal};
 use super::simloop::{CAP, EW, LA, Q};
 use super::trial::{Finished, Progress, TAIL_US, TrialReport, TrialSpec, finish, prepare};
+use super::world::TruthSample;
 use crate::Error;
 use crossbeam_channel::{Receiver, Sender, TrySendError, bounded};
 use image::GrayImage;
@@ -22,7 +24,7 @@ use mesopush_executor::clock::{Clock, MonotonicClock};
 use mesopush_executor::endpoint::Endpoint;
 use mesopush_executor::shell::port::{ByteRead, ByteWrite, CHUNK_BYTES, Chunk, split_tty};
 use mesopush_executor::shell::{Shell, ShellStats};
-use mesopush_executor::{CameraFrame, Executor, LogEvent, MemStore};
+use mesopush_executor::{CameraFrame, Executor, LogEvent, MemStore, StampedFrame};
 use mesopush_firmware_sim::camera::SimCamera;
 use mesopush_firmware_sim::{ControllerNode, CtrlConfig, FaultConfig};
 use mesopush_protocol::{FRAME_BUF_LEN, LinkConfig};
@@ -60,6 +62,11 @@ impl ByteWrite for ChanWrite {
         Ok(())
     }
 }
+
+/// Frames queued for the painter thread (more: the frame is counted lost).
+const PAINT_QUEUE: usize = 4;
+/// How long a stamped frame waits for its image before it is given up, µs.
+const STAMP_WAIT_US: u64 = 500_000;
 
 /// Runs `spec` in real time.
 pub fn run_realtime(
@@ -121,6 +128,17 @@ pub fn run_realtime(
     let mut ctrl =
         ServedController::new(master, node, camera).map_err(|e| Error::io("pty master", e))?;
     let mut world = prep.world;
+    let (paint_tx, paint_rx) = bounded::<(u32, TruthSample)>(PAINT_QUEUE);
+    let (image_tx, image_rx) = bounded::<(u32, GrayImage)>(PAINT_QUEUE);
+    let mut painter = world.painter();
+    let painting = std::thread::spawn(move || {
+        for (seq, truth) in paint_rx {
+            if image_tx.send((seq, painter.paint_image(&truth))).is_err() {
+                break;
+            }
+        }
+    });
+    let mut stamped_waiting: Vec<(StampedFrame, u64)> = Vec::new();
     let mut host = HostSession::new(&spec.plan, SessionGoal::FlashAndRun, 7_001)?;
     let mut images: Vec<(u32, Option<GrayImage>)> = Vec::new();
     let mut lost = 0u64;
@@ -134,7 +152,7 @@ pub fn run_realtime(
     };
     let result: Result<(), Error> = loop {
         let now = clock.now_us();
-        let frame = match ctrl.step(now, &mut world) {
+        let frame = match ctrl.step(now, &mut Deferred { world: &mut world }) {
             Ok((_, frame)) => frame,
             Err(e) => break Err(Error::io("pty master", e)),
         };
@@ -147,10 +165,18 @@ pub fn run_realtime(
             if frame_tx.try_send(cam).is_err() {
                 lost += 1;
             }
-            images.push((frame.frame_seq, frame.image.map(|f| f.image)));
-            if images.len() > 8 {
-                images.remove(0);
+            // Drawn on the painter thread (a full queue skips it: its stamp then waits in
+            // vain and is counted lost below); a black frame (no truth) has no image.
+            match frame.image {
+                Some(t) => drop(paint_tx.try_send((frame.frame_seq, t))),
+                None => images.push((frame.frame_seq, None)),
             }
+        }
+        while let Ok((seq, image)) = image_rx.try_recv() {
+            images.push((seq, Some(image)));
+        }
+        if images.len() > 8 {
+            images.drain(..images.len() - 8);
         }
         while let Ok(c) = to_host_rx.try_recv() {
             host.on_bytes(now, c.bytes());
@@ -168,13 +194,23 @@ pub fn run_realtime(
         }
         while let Ok(e) = log_rx.try_recv() {
             if let LogEvent::Frame(stamped) = e {
-                if let Some(i) = images.iter().position(|(s, _)| *s == stamped.stamp.frame_seq) {
-                    let image = images.remove(i).1;
-                    forward(&rec_tx, RecMsg::Frame { stamped, arrival_us: now, image }, &mut lost);
-                }
+                stamped_waiting.push((stamped, now));
             }
             forward(&rec_tx, RecMsg::Log(now, e), &mut lost);
         }
+        // A stamped frame goes to the recorder with its image once the painter drew it.
+        stamped_waiting.retain(|(stamped, arrival_us)| {
+            let seq = stamped.stamp.frame_seq;
+            let Some(i) = images.iter().position(|(s, _)| *s == seq) else {
+                let waiting = now < arrival_us + STAMP_WAIT_US;
+                lost += u64::from(!waiting);
+                return waiting;
+            };
+            let image = images.remove(i).1;
+            let msg = RecMsg::Frame { stamped: *stamped, arrival_us: *arrival_us, image };
+            forward(&rec_tx, msg, &mut lost);
+            false
+        });
         if now >= next_progress {
             next_progress = now + 100_000;
             progress(Progress { t_s: now as f64 * 1e-6, total_s });
@@ -188,6 +224,8 @@ pub fn run_realtime(
     };
     let _ = stop_tx.send(());
     let _ = shell.join();
+    drop(paint_tx);
+    let _ = painting.join();
     drop(rec_tx);
     let recorded =
         rec.join().map_err(|_| Error::invalid("recorder", "the recorder panicked"))??;

@@ -35,6 +35,7 @@
 //! verdict names. The camera renders the tip where it actually is.
 
 use super::needle::{contact_edge, resting_tip};
+use super::painter::Painter;
 use crate::Error;
 use crate::effects::{Backlash, Effects, stamp_with_latency_us};
 use crate::geom::{ConvexPolygon, Pose, Vec2};
@@ -43,6 +44,7 @@ use crate::sim::{Fixture, SimSettings, SimState, Simulator};
 use crate::vision::{RenderSettings, Renderer, Scene};
 use image::GrayImage;
 use mesopush_firmware_sim::{PegPose, World};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 /// The world at one camera exposure (ground truth).
@@ -204,6 +206,17 @@ impl RigWorld {
     /// The needle's current deflection (commanded tip − resting tip), µm.
     fn deflection_um(&self) -> f64 {
         (self.commanded_um - self.tip_um()).norm()
+    }
+
+    /// What a renderer thread needs to draw this world's frames (its own renderer, noise
+    /// stream forked from the world's), so frames can be drawn off the controller's loop.
+    pub fn painter(&mut self) -> Painter {
+        Painter {
+            renderer: self.renderer.clone(),
+            walls: self.sim.fixture().walls.clone(),
+            peg: self.peg_body.clone(),
+            rng: ChaCha8Rng::seed_from_u64(rand::Rng::next_u64(&mut self.rng)),
+        }
     }
 
     /// The world's state now, stamped `t_us` (what a frame exposed now would show).

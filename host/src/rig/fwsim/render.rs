@@ -1,15 +1,12 @@
-//! The simulator process's renderer side: the world as the controller loop sees it
-//! ([`Deferred`]: physics only, `render` hands back what to draw), the renderer thread
-//! ([`render_frames`]) and the camera socket's writer ([`serve_camera`]).
+//! The simulator process's renderer side: the renderer thread ([`render_frames`], drawing
+//! what [`crate::rig::painter::Deferred`] handed back) and the camera socket's writer
+//! ([`serve_camera`]).
 
 use crate::Error;
-use crate::geom::ConvexPolygon;
-use crate::rig::world::{RigWorld, TruthSample};
-use crate::vision::{Renderer, Scene};
+use crate::rig::painter::Painter;
+use crate::rig::world::TruthSample;
 use crossbeam_channel::{Receiver, Sender};
-use mesopush_firmware_sim::{PegPose, World};
 use mesopush_protocol::camera::CameraFrameHeader;
-use rand_chacha::ChaCha8Rng;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -22,48 +19,6 @@ pub(super) struct RenderJob {
     pub(super) header: CameraFrameHeader,
     pub(super) exposure_mono_us: u64,
     pub(super) truth: Option<TruthSample>,
-}
-
-/// The world as the controller loop sees it: physics only; `render` returns the ground truth
-/// at the exposure (what to draw) and the renderer thread draws it.
-pub(super) struct Deferred<'a> {
-    pub(super) world: &'a mut RigWorld,
-}
-
-impl World for Deferred<'_> {
-    type Frame = TruthSample;
-
-    fn step(&mut self, sim_time_us: u64, probe_nm: (i32, i32)) -> PegPose {
-        self.world.step(sim_time_us, probe_nm)
-    }
-
-    fn render(&mut self, sim_time_us: u64) -> TruthSample {
-        // As `RigWorld::render`: the snapshot at the exposure (taken when a step crossed it).
-        let truth = self.world.truth();
-        let i = truth.partition_point(|s| s.t_us < sim_time_us);
-        let now = || self.world.truth_now(sim_time_us);
-        truth.get(i).or(truth.last()).copied().unwrap_or_else(now)
-    }
-}
-
-/// What the renderer thread draws with.
-pub(super) struct Painter {
-    pub(super) renderer: Renderer,
-    pub(super) walls: Vec<ConvexPolygon>,
-    pub(super) peg: ConvexPolygon,
-    pub(super) rng: ChaCha8Rng,
-}
-
-impl Painter {
-    pub(super) fn paint(&mut self, t: &TruthSample) -> Vec<u8> {
-        let scene = Scene {
-            walls: &self.walls,
-            peg: Some(&self.peg),
-            peg_pose: t.peg,
-            probe_tip: Some(t.probe_um),
-        };
-        self.renderer.render(&scene, &mut self.rng).image.into_raw()
-    }
 }
 
 /// The renderer thread: draws each queued frame, queues it for the camera socket (a full
