@@ -255,3 +255,32 @@ fn bad_input_gives_a_clear_error_not_a_panic() {
         "{err}"
     );
 }
+
+/// `mesopush demo --realtime` on the 2 s push: the in-process real-time loop (executor shell
+/// on a pseudo-terminal, controller served in real time, frames drawn on a painter thread)
+/// runs the plan to its end and records every stamped frame with its image. Regression: the
+/// loop rendered on the controller's thread, answered clock-sync requests late and the trial
+/// faulted `ClockSyncLost` even on an idle machine.
+#[test]
+fn demo_realtime_runs_to_the_end_with_every_frame_recorded() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plan = tmp.path().join("push.toml");
+    std::fs::write(&plan, PLAN).unwrap();
+    let out = tmp.path().join("demo");
+    let o = Command::new(MESOPUSH)
+        .args(["demo", "--realtime", "--seed", "3", "--json", "--plan"])
+        .arg(&plan)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "seed 3: {}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["state"], "done", "seed 3: {v}");
+    assert_eq!(v["segments_applied"], v["segments_expected"], "seed 3: {v}");
+    let frames = v["frames"].as_u64().unwrap();
+    assert!(frames >= 50, "seed 3: 2 s at 30 Hz: {frames} frames");
+    let pngs = std::fs::read_dir(out.join("frames")).unwrap().count() as u64;
+    let lost = v["records_lost"].as_u64().unwrap();
+    assert_eq!(pngs + lost, frames, "seed 3: every frame recorded with its image or counted lost");
+}
