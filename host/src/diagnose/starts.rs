@@ -71,6 +71,15 @@ fn signature_starts(
             s.extend(drift_trend_start(nominal, train, ctx));
             profile_starts(c, s, train, ctx)
         }
+        Candidate::Adhesion => {
+            // The nominal fit absorbs an adhesive drag with surface friction (it ends at its
+            // bound); start the adhesion grid from the prior surface friction too.
+            let mut prior = nominal.to_vec();
+            prior[1] = ctx.base.support.mu_surface[0];
+            let mut s = grid_starts(c, nominal);
+            s.extend(grid_starts(c, &prior));
+            s
+        }
         _ => grid_starts(c, nominal),
     }
 }
