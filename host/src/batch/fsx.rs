@@ -16,6 +16,24 @@ pub fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     Ok(())
 }
 
+/// Writes `value` as JSON to `path` crash-safely: a synced temporary file renamed over it
+/// (a killed writer leaves the old file or none, never half of one).
+pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), Error> {
+    let text = serde_json::to_vec(value)
+        .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
+    let tmp = path.with_extension("json.tmp");
+    write_synced(&tmp, &text)?;
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))?;
+    path.parent().map_or(Ok(()), sync_dir)
+}
+
+/// Reads a JSON file into `T`, naming the file in any error.
+pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, Error> {
+    let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    serde_json::from_slice(&text)
+        .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })
+}
+
 /// Fsyncs a directory (so renames and new entries in it survive a crash).
 pub fn sync_dir(dir: &Path) -> Result<(), Error> {
     let dir = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };

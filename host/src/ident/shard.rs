@@ -13,6 +13,7 @@ use super::score::Score;
 use super::sweep::Sweep;
 use crate::Error;
 use crate::batch::Shard;
+use crate::batch::fsx::{read_json, write_json_atomic};
 use crate::sim::SupportDistribution;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -117,20 +118,14 @@ impl SweepShard {
         Self { format: SWEEP_SHARD_FORMAT, key, shard, candidates: candidates as u64, columns }
     }
 
-    /// Writes the file (a temporary then a rename: a killed run leaves no half file).
+    /// Writes the file (a synced temporary then a rename: a killed run leaves no half file).
     pub fn save(&self, path: &Path) -> Result<(), Error> {
-        let text = serde_json::to_string(self)
-            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
-        let tmp = path.with_extension("json.tmp");
-        std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
-        std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+        write_json_atomic(path, self)
     }
 
     /// Reads a file written by [`SweepShard::save`].
     pub fn load(path: &Path) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let f: Self = serde_json::from_str(&text)
-            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
+        let f: Self = read_json(path)?;
         if f.format != SWEEP_SHARD_FORMAT {
             let msg =
                 format!("sweep shard format {} (this build reads {SWEEP_SHARD_FORMAT})", f.format);
