@@ -259,6 +259,35 @@ impl Shard {
         i % self.count == self.index
     }
 
+    /// Checks that `shards` (each with the file it came from) are every one of the same
+    /// split's `N` shards exactly once; errors name the file (`what`: the merge's name).
+    pub fn check_set<'p>(
+        what: &'static str,
+        shards: impl IntoIterator<Item = (&'p Path, Shard)>,
+    ) -> Result<(), Error> {
+        let mut seen: Vec<bool> = Vec::new();
+        for (p, s) in shards {
+            let bad = |m: String| Error::invalid(what, format!("{}: {m}", p.display()));
+            if seen.is_empty() {
+                seen = vec![false; s.count as usize];
+            }
+            let count = seen.len();
+            if s.count as usize != count {
+                return Err(bad(format!("shard {}/{} among shards of {count}", s.index, s.count)));
+            }
+            if std::mem::replace(&mut seen[s.index as usize], true) {
+                return Err(bad(format!("shard {}/{count} given twice", s.index)));
+            }
+        }
+        let count = seen.len();
+        let missing: Vec<String> =
+            (0..count).filter(|&i| !seen[i]).map(|i| format!("{i}/{count}")).collect();
+        if !missing.is_empty() {
+            return Err(Error::invalid(what, format!("missing shards {}", missing.join(", "))));
+        }
+        Ok(())
+    }
+
     /// Directory name for a shard's output (`shard-03-of-16`).
     pub fn dir_name(&self) -> String {
         let w = self.count.to_string().len().max(2);

@@ -144,33 +144,16 @@ pub fn merge(
     supports: Vec<SupportDistribution>,
 ) -> Result<Sweep, Error> {
     let bad = |p: &Path, m: String| Error::invalid("sweep merge", format!("{}: {m}", p.display()));
-    let Some((_, first)) = files.first() else {
+    if files.is_empty() {
         return Err(Error::invalid("sweep merge", "no sweep shard files given"));
-    };
-    let (count, n) = (first.shard.count, mus.len() * supports.len());
-    let mut seen = vec![false; count as usize];
+    }
+    let n = mus.len() * supports.len();
     for (p, f) in files {
         if &f.key != key || f.candidates != n as u64 {
             return Err(bad(p, "a different sweep (trials, seed or settings differ)".into()));
         }
-        if f.shard.count != count {
-            return Err(bad(
-                p,
-                format!("shard {}/{} among shards of {count}", f.shard.index, f.shard.count),
-            ));
-        }
-        if std::mem::replace(&mut seen[f.shard.index as usize], true) {
-            return Err(bad(p, format!("shard {}/{count} given twice", f.shard.index)));
-        }
     }
-    let missing: Vec<String> =
-        (0..count).filter(|&i| !seen[i as usize]).map(|i| format!("{i}/{count}")).collect();
-    if !missing.is_empty() {
-        return Err(Error::invalid(
-            "sweep merge",
-            format!("missing shards {}", missing.join(", ")),
-        ));
-    }
+    Shard::check_set("sweep merge", files.iter().map(|(p, f)| (p.as_path(), f.shard)))?;
     let n_trials = key.trials.len();
     let mut scores: Vec<Vec<Option<Score>>> = vec![vec![None; n]; n_trials];
     for (p, f) in files {

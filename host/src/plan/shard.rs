@@ -100,8 +100,6 @@ pub fn merge(files: &[(PathBuf, ShardFile)]) -> Result<(RunKey, Estimate), Error
     let Some((p0, first)) = files.first() else {
         return Err(Error::invalid("robustness merge", "no shard files given"));
     };
-    let count = first.shard.count;
-    let mut seen = vec![false; count as usize];
     for (p, f) in files {
         if f.key != first.key {
             return Err(bad(
@@ -112,25 +110,8 @@ pub fn merge(files: &[(PathBuf, ShardFile)]) -> Result<(RunKey, Estimate), Error
                 ),
             ));
         }
-        if f.shard.count != count {
-            return Err(bad(
-                p,
-                format!("shard {}/{} among shards of {count}", f.shard.index, f.shard.count),
-            ));
-        }
-        let s = &mut seen[f.shard.index as usize];
-        if std::mem::replace(s, true) {
-            return Err(bad(p, format!("shard {}/{count} given twice", f.shard.index)));
-        }
     }
-    let missing: Vec<String> =
-        (0..count).filter(|&i| !seen[i as usize]).map(|i| format!("{i}/{count}")).collect();
-    if !missing.is_empty() {
-        return Err(Error::invalid(
-            "robustness merge",
-            format!("missing shards {}", missing.join(", ")),
-        ));
-    }
+    Shard::check_set("robustness merge", files.iter().map(|(p, f)| (p.as_path(), f.shard)))?;
     let n = first.key.samples;
     let mut slots: Vec<Option<Trial>> = vec![None; n as usize];
     for (p, f) in files {
