@@ -18,6 +18,7 @@ use mesopush_protocol::{
     CtrlToExec, ExecToCtrl, ExecToHost, FRAME_BUF_LEN, FrameReader, HostToExec, Link, LinkConfig,
     encode_frame,
 };
+use serde::de::DeserializeOwned;
 
 /// Room for outputs of one core call.
 const OUT: usize = 64;
@@ -50,6 +51,24 @@ pub struct Endpoint<S, const CAP: usize, const LA: usize, const W: usize> {
     out: Outputs<OUT>,
     session: u16,
     stats: EndpointStats,
+}
+
+/// One byte of a line through its frame reader and link: the message it completes, if that
+/// is the next one in order. An overlong frame is counted and skipped.
+fn receive<Tx, Rx: DeserializeOwned, const W: usize>(
+    reader: &mut FrameReader<FRAME_BUF_LEN>,
+    link: &mut Link<Tx, Rx, W>,
+    stats: &mut EndpointStats,
+    now_us: u64,
+    byte: u8,
+) -> Option<Rx> {
+    match reader.push_byte(byte)? {
+        Err(_) => {
+            stats.overlong_frames += 1;
+            None
+        }
+        Ok(frame) => link.on_bytes(now_us, frame),
+    }
 }
 
 impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S, CAP, LA, W> {
@@ -100,15 +119,8 @@ impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S
         log: &mut impl FnMut(&LogEvent),
     ) -> Result<(), ExecError> {
         for &byte in bytes {
-            let msg = match self.host_reader.push_byte(byte) {
-                None => continue,
-                Some(Err(_)) => {
-                    self.stats.overlong_frames += 1;
-                    continue;
-                }
-                Some(Ok(frame)) => self.host_link.on_bytes(now_us, frame),
-            };
-            if let Some(msg) = msg {
+            let (reader, link) = (&mut self.host_reader, &mut self.host_link);
+            if let Some(msg) = receive(reader, link, &mut self.stats, now_us, byte) {
                 self.feed(now_us, Input::Host(&msg), log)?;
             }
         }
@@ -123,15 +135,8 @@ impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S
         log: &mut impl FnMut(&LogEvent),
     ) -> Result<(), ExecError> {
         for &byte in bytes {
-            let msg = match self.ctrl_reader.push_byte(byte) {
-                None => continue,
-                Some(Err(_)) => {
-                    self.stats.overlong_frames += 1;
-                    continue;
-                }
-                Some(Ok(frame)) => self.ctrl_link.on_bytes(now_us, frame),
-            };
-            if let Some(msg) = msg {
+            let (reader, link) = (&mut self.ctrl_reader, &mut self.ctrl_link);
+            if let Some(msg) = receive(reader, link, &mut self.stats, now_us, byte) {
                 self.feed(now_us, Input::Ctrl(&msg), log)?;
             }
         }

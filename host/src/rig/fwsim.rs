@@ -26,15 +26,16 @@
 //! (both `CLOCK_MONOTONIC` µs) and the true peg and probe tip, flushed per row — the ground
 //! truth `mesopush run --truth` compares with; never read by identification or diagnosis.
 
+use super::build::{Built, build};
 use super::ctrl_serve::{LineState, ServedController};
 use super::recorder::encode_png;
 use super::simloop::CameraTiming;
-use super::world::{RigWorld, TruthSample, WorldSetup};
+use super::world::{RigWorld, TruthSample};
 use super::world_file::WorldFile;
 use crate::Error;
-use crate::geom::{Pose, Vec2};
+use crate::geom::Vec2;
 use crate::sim::{Fixture, Plan};
-use crate::vision::{RenderSettings, Renderer};
+use crate::vision::Renderer;
 use crossbeam_channel::{Sender, bounded};
 use mesopush_executor::clock::{Clock, MonotonicClock};
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
@@ -126,49 +127,15 @@ fn build_world(
     rng: &SimRng,
 ) -> Result<(RigWorld, CameraTiming, Painter), Error> {
     let ws = &opts.world.spec;
-    let render = RenderSettings {
-        width_px: ws.camera.size_px[0],
-        height_px: ws.camera.size_px[1],
-        calibration: opts.world.render_calibration()?,
-        ..RenderSettings::default()
-    };
-    let camera = CameraTiming {
-        period_us: ws.camera.period_us,
-        readout_us: ws.camera.readout_us,
-        start_us: ws.camera.period_us,
-    };
-    let nominal = ws.peg.start.map_or_else(
-        || opts.plan.peg_start_pose(),
-        |s| Pose::new(s.x_um, s.y_um, s.theta_deg.to_radians()),
-    );
-    let peg_start = match ws.peg.perturb {
-        Some([dx, dy, dth]) => {
-            let mut r = rng.fork(13);
-            let mut u = |a: f64| (2.0 * r.unit() - 1.0) * a;
-            let (x, y) = (nominal.x_um + u(dx), nominal.y_um + u(dy));
-            Pose::new(x, y, nominal.theta_rad + u(dth).to_radians())
-        }
-        None => nominal,
-    };
+    let Built { world, camera, render, .. } = build(&opts.world, &opts.plan, None, rng)?;
     let walls = Fixture::paper().walls;
     let painter = Painter {
-        renderer: Renderer::new(render.clone(), &walls)?,
+        renderer: Renderer::new(render, &walls)?,
         walls,
         peg: opts.world.model.part.polygon().clone(),
         rng: ChaCha8Rng::seed_from_u64(rng.fork(1000 + ws.camera.noise_stream).next_u64()),
     };
-    let setup = WorldSetup {
-        model: opts.world.model.clone(),
-        peg_start,
-        stage_offset_um: Vec2::new(ws.stage.offset_um[0], ws.stage.offset_um[1]),
-        render,
-        camera_start_us: camera.start_us,
-        camera_period_us: camera.period_us,
-        effects: ws.effects.clone(),
-    };
-    let noise =
-        rand_chacha::ChaCha8Rng::seed_from_u64(rng.fork(12 + ws.camera.noise_stream).next_u64());
-    Ok((RigWorld::new(setup, opts.plan.probe_start(), noise)?, camera, painter))
+    Ok((world, camera, painter))
 }
 
 fn io_err(what: impl AsRef<Path>, e: impl std::fmt::Display) -> Error {

@@ -14,6 +14,7 @@
 //!   jam events; [`figure`]: tracked vs
 //!   simulated trajectory figure.
 
+pub(crate) mod build;
 pub mod complete;
 pub mod ctrl_serve;
 pub mod faults;

@@ -3,21 +3,21 @@
 //! judges the verdict from the tracked poses. Simulated time is deterministic: the same seed
 //! gives a byte-identical trial directory.
 
+use super::build::{Built, build};
 use super::faults::{FaultClasses, FaultCount};
 use super::recorder::{Recorder, RecorderResult, Schedule, Tracked, track_error};
 use super::session::{HostSession, SessionEnd, SessionGoal, plan_steps};
 use super::simloop::{CameraTiming, STEP_US, SimLoop};
-use super::world::{RigWorld, TruthSample, WorldSetup};
+use super::world::{RigWorld, TruthSample};
 use super::world_file::WorldFile;
 use crate::Error;
 use crate::geom::{Pose, Vec2};
 use crate::sim::{Fixture, Plan};
 use crate::trial::{CalibrationRecord, EventRow, Outcome, TrialMeta, TrialState};
-use crate::vision::{RenderSettings, TrackSettings};
+use crate::vision::TrackSettings;
 use mesopush_executor::ExecutorConfig;
 use mesopush_firmware_sim::SimRng;
 use mesopush_protocol::host::TrialEventKind;
-use rand::SeedableRng;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -125,20 +125,6 @@ pub(crate) struct Prepared {
     pub segments_expected: u64,
 }
 
-fn peg_start(spec: &TrialSpec, rng: &SimRng) -> Pose {
-    let w = &spec.world.spec.peg;
-    let nominal = spec.peg_start.unwrap_or_else(|| {
-        w.start.map_or_else(
-            || spec.plan.peg_start_pose(),
-            |s| Pose::new(s.x_um, s.y_um, s.theta_deg.to_radians()),
-        )
-    });
-    let Some([dx, dy, dth]) = w.perturb else { return nominal };
-    let mut r = rng.fork(13);
-    let mut u = |a: f64| (2.0 * r.unit() - 1.0) * a;
-    Pose::new(nominal.x_um + u(dx), nominal.y_um + u(dy), nominal.theta_rad + u(dth).to_radians())
-}
-
 fn meta(spec: &TrialSpec, cal: &crate::vision::Calibration) -> TrialMeta {
     let mut m = TrialMeta::new(&spec.trial_id, "fwsim", spec.world.model.part.clone());
     m.probe_radius_um = spec.world.model.probe_radius_um;
@@ -156,31 +142,8 @@ pub(crate) fn prepare(spec: &TrialSpec, out_dir: &Path) -> Result<Prepared, Erro
     let rng = SimRng::new(spec.seed);
     let ws = &spec.world.spec;
     let cal = ws.camera.calibration()?;
-    let offset = Vec2::new(ws.stage.offset_um[0], ws.stage.offset_um[1]);
-    let render = RenderSettings {
-        width_px: ws.camera.size_px[0],
-        height_px: ws.camera.size_px[1],
-        // The true optics (differ from `cal` by the world's scale error, if any).
-        calibration: spec.world.render_calibration()?,
-        ..RenderSettings::default()
-    };
-    let camera = CameraTiming {
-        period_us: ws.camera.period_us,
-        readout_us: ws.camera.readout_us,
-        start_us: ws.camera.period_us,
-    };
-    let setup = WorldSetup {
-        model: spec.world.model.clone(),
-        peg_start: peg_start(spec, &rng),
-        stage_offset_um: offset,
-        render,
-        camera_start_us: camera.start_us,
-        camera_period_us: camera.period_us,
-        effects: ws.effects.clone(),
-    };
-    let noise =
-        rand_chacha::ChaCha8Rng::seed_from_u64(rng.fork(12 + ws.camera.noise_stream).next_u64());
-    let mut world = RigWorld::new(setup, spec.plan.probe_start(), noise)?;
+    let Built { mut world, camera, offset_um: offset, .. } =
+        build(&spec.world, &spec.plan, spec.peg_start, &rng)?;
     let background = world.background();
     let writer = crate::trial::TrialWriter::create(out_dir, meta(spec, &cal))?;
     let config = ExecutorConfig::DEFAULT;

@@ -110,23 +110,7 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<()> {
 }
 
 fn print_summary(r: &TrialReport, fig: &Path, seed: u64) {
-    let inserted = match r.inserted {
-        Some(true) => "INSERTED",
-        Some(false) => "NOT inserted",
-        None => "not judged (no tracked pose)",
-    };
-    println!("trial {:?} (seed {seed}): {inserted}", r.state);
-    if let Some(reason) = &r.reason {
-        println!("  reason: {reason}");
-    }
-    if let Some(p) = r.final_pose {
-        println!(
-            "  final tracked pose: x {:.1} µm, y {:.1} µm, θ {:.2}°",
-            p.x_um,
-            p.y_um,
-            p.theta_rad.to_degrees()
-        );
-    }
+    crate::verdict::print_head(r.state, Some(seed), r.inserted, r.reason.as_deref(), r.final_pose);
     println!(
         "  frames {} (dropped {}), tracking error max {:.1} µm / {:.2}° over {} frames",
         r.frames,

@@ -94,19 +94,7 @@ pub(crate) fn run(args: &RunArgs) -> anyhow::Result<()> {
 
 fn print_summary(r: &RunReport) {
     let t = &r.trial;
-    let verdict = match t.inserted {
-        Some(true) => "INSERTED",
-        Some(false) => "NOT inserted",
-        None => "not judged (no tracked pose)",
-    };
-    println!("trial {:?}: {verdict}", t.state);
-    if let Some(reason) = &t.reason {
-        println!("  reason: {reason}");
-    }
-    if let Some(p) = t.final_pose {
-        let deg = p.theta_rad.to_degrees();
-        println!("  final tracked pose: x {:.1} µm, y {:.1} µm, θ {deg:.2}°", p.x_um, p.y_um);
-    }
+    crate::verdict::print_head(t.state, None, t.inserted, t.reason.as_deref(), t.final_pose);
     println!(
         "  frames {} (dropped {}), {} tracked; {} position reports; {:.1} s",
         t.frames, t.dropped_frames, t.tracked, r.telemetry, r.wall_time_s

@@ -14,6 +14,7 @@ mod cmd_robustness;
 mod cmd_run;
 mod cmd_sim;
 mod cmd_track;
+mod verdict;
 
 use clap::{Parser, Subcommand};
 
