@@ -68,24 +68,42 @@ where
     Ok(())
 }
 
-fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, fig: &PlanFigure<'_>) -> DrawResult
+/// The view of the trajectory figures, `(x0, x1, y0, y1)` in µm: the camera field with room
+/// on the left for the peg's start and the probe's approach.
+pub(crate) const VIEW_UM: (f64, f64, f64, f64) =
+    (-1500.0, FIELD_UM[0] + 100.0, -100.0, FIELD_UM[1] + 100.0);
+
+/// A white area with a titled chart over [`VIEW_UM`] (y down), the walls and the field drawn.
+pub(crate) fn fixture_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    walls: &[ConvexPolygon],
+) -> Result<FixtureChart<'a, DB>, Box<dyn std::error::Error>>
 where
     DB::ErrorType: 'static,
 {
     area.fill(&WHITE)?;
-    let (x0, x1) = (-1500.0, FIELD_UM[0] + 100.0);
-    let (y0, y1) = (-100.0, FIELD_UM[1] + 100.0);
+    let (x0, x1, y0, y1) = VIEW_UM;
     let mut chart = ChartBuilder::on(area)
-        .caption(fig.title, ("sans-serif", 20))
+        .caption(title, ("sans-serif", 20))
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(55)
         .build_cartesian_2d(x0..x1, y1..y0)?;
     chart.configure_mesh().x_desc("x [µm]").y_desc("y [µm] (down)").disable_mesh().draw()?;
+    draw_walls_and_field(&mut chart, walls, VIEW_UM)?;
+    Ok(chart)
+}
+
+fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, fig: &PlanFigure<'_>) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let mut chart = fixture_chart(area, fig.title, fig.walls)?;
+    let (x0, x1, y0, y1) = VIEW_UM;
     let clip = |p: &ConvexPolygon| -> Vec<(f64, f64)> {
         p.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect()
     };
-    draw_walls_and_field(&mut chart, fig.walls, (x0, x1, y0, y1))?;
     if let Some(g) = fig.goal {
         let mut pts = clip(g);
         pts.push(pts[0]);

@@ -4,8 +4,7 @@
 
 use crate::Error;
 use crate::geom::{ConvexPolygon, Pose};
-use crate::plot::fig6::{DrawResult, draw_walls_and_field};
-use crate::sim::fixture::FIELD_UM;
+use crate::plot::fig6::{DrawResult, fixture_chart};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -47,17 +46,7 @@ fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, fig: &TrialFigure<'_>
 where
     DB::ErrorType: 'static,
 {
-    area.fill(&WHITE)?;
-    let (x0, x1) = (-1500.0, FIELD_UM[0] + 100.0);
-    let (y0, y1) = (-100.0, FIELD_UM[1] + 100.0);
-    let mut chart = ChartBuilder::on(area)
-        .caption(fig.title, ("sans-serif", 20))
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(55)
-        .build_cartesian_2d(x0..x1, y1..y0)?;
-    chart.configure_mesh().x_desc("x [µm]").y_desc("y [µm] (down)").disable_mesh().draw()?;
-    draw_walls_and_field(&mut chart, fig.walls, (x0, x1, y0, y1))?;
+    let mut chart = fixture_chart(area, fig.title, fig.walls)?;
     let orange = RGBColor(230, 120, 20);
     for (poses, color, label) in
         [(fig.simulated, orange, "simulated (host model)"), (fig.tracked, BLUE, "tracked")]
