@@ -88,8 +88,11 @@ impl Default for CtrlConfig {
     }
 }
 
-/// Faults to inject, drawn from the run's seed.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Faults to inject, drawn from the run's seed. Deserialisable (a world file's `[faults]`
+/// table): every field defaults to [`FaultConfig::NONE`]'s, unknown fields are refused;
+/// check the values with [`FaultConfig::validate`].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct FaultConfig {
     /// Probability that a frame on a line is lost.
     pub link_drop: f64,

@@ -22,17 +22,16 @@ pub mod host;
 
 use crate::clock::{Clock, MonotonicClock};
 use crate::endpoint::Endpoint;
-use crate::shell::port::Chunk;
+use crate::shell::port::{Chunk, PipeReader, PipeWriter};
 use crate::shell::rt::{RtApplied, RtOptions, apply, pin_current_thread};
-use crate::shell::{ByteRead, ByteWrite, Shell, ShellOptions, ShellStats};
+use crate::shell::{Shell, ShellOptions, ShellStats};
 use crate::{Executor, ExecutorConfig, MemStore};
-use crossbeam_channel::{Receiver, Sender, bounded};
+use crossbeam_channel::bounded;
 use mesopush_protocol::LinkConfig;
 use mesopush_protocol::host::{ExecToHost, TrialEventKind};
 use std::io;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
 
 /// Plan memory of the bench executor (steps × 12 bytes).
 const CAP: usize = 12 * 1024;
@@ -95,34 +94,6 @@ pub struct BenchReport {
     pub trial_end: String,
 }
 
-struct ChanRead(Receiver<Chunk>);
-struct ChanWrite(Sender<Chunk>);
-
-impl ByteRead for ChanRead {
-    fn read_bytes(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        match self.0.recv_timeout(Duration::from_millis(10)) {
-            Ok(c) => {
-                let n = c.bytes().len().min(buf.len());
-                buf[..n].copy_from_slice(&c.bytes()[..n]);
-                Ok(n)
-            }
-            Err(crossbeam_channel::RecvTimeoutError::Timeout) => Ok(0),
-            Err(_) => Err(io::Error::new(io::ErrorKind::BrokenPipe, "line closed")),
-        }
-    }
-}
-
-impl ByteWrite for ChanWrite {
-    fn write_bytes(&mut self, bytes: &[u8]) -> io::Result<()> {
-        for piece in bytes.chunks(crate::shell::port::CHUNK_BYTES) {
-            self.0
-                .send(Chunk::new(piece))
-                .map_err(|_| io::Error::new(io::ErrorKind::BrokenPipe, "line closed"))?;
-        }
-        Ok(())
-    }
-}
-
 /// Runs the bench in real time (takes `seconds` plus about a second).
 pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
     if !((1..=1000).contains(&opts.rate_hz) && opts.seconds > 0.0 && opts.seconds <= 3600.0) {
@@ -171,8 +142,10 @@ pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
     });
     let drain = std::thread::spawn(move || log_rx.iter().count());
     let mut stats = ShellStats::default();
-    let (host_line, ctrl_line) =
-        ((ChanRead(h_in_rx), ChanWrite(h_out_tx)), (ChanRead(c_in_rx), ChanWrite(c_out_tx)));
+    let (host_line, ctrl_line) = (
+        (PipeReader::from(h_in_rx), PipeWriter::from(h_out_tx)),
+        (PipeReader::from(c_in_rx), PipeWriter::from(c_out_tx)),
+    );
     // The threads above keep the normal scheduler; this one (and its line readers) get the
     // real-time set-up.
     let rt = apply(&opts.rt);

@@ -88,6 +88,20 @@ pub fn pipe(chunks: usize) -> (PipeWriter, PipeReader) {
     (PipeWriter { tx }, PipeReader { rx })
 }
 
+impl From<Receiver<Chunk>> for PipeReader {
+    /// Reads a channel of chunks whose sending end another thread holds.
+    fn from(rx: Receiver<Chunk>) -> Self {
+        Self { rx }
+    }
+}
+
+impl From<Sender<Chunk>> for PipeWriter {
+    /// Writes into a channel of chunks whose receiving end another thread holds.
+    fn from(tx: Sender<Chunk>) -> Self {
+        Self { tx }
+    }
+}
+
 impl ByteRead for PipeReader {
     fn read_bytes(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         match self.rx.recv_timeout(Duration::from_millis(10)) {

@@ -157,7 +157,7 @@ impl Fwsim {
             link_corrupt: 0.0,
             link_duplicate: 0.0,
             link_delay: 0.0,
-            ..opts.world.spec.faults.to_config()?
+            ..super::world_file::validated_faults(&opts.world.spec.faults)?
         };
         let (master, slave) = TTYPort::pair().map_err(|e| io_err("pty", e))?;
         let controller = slave.name().ok_or_else(|| io_err("pty", "the pty slave has no path"))?;

@@ -18,11 +18,11 @@ use super::simloop::{CAP, EW, LA, Q};
 use super::trial::{Finished, Progress, TAIL_US, TrialReport, TrialSpec, finish, prepare};
 use super::world::TruthSample;
 use crate::Error;
-use crossbeam_channel::{Receiver, Sender, TrySendError, bounded};
+use crossbeam_channel::{Sender, TrySendError, bounded};
 use image::GrayImage;
 use mesopush_executor::clock::{Clock, MonotonicClock};
 use mesopush_executor::endpoint::Endpoint;
-use mesopush_executor::shell::port::{ByteRead, ByteWrite, CHUNK_BYTES, Chunk, split_tty};
+use mesopush_executor::shell::port::{CHUNK_BYTES, Chunk, PipeReader, PipeWriter, split_tty};
 use mesopush_executor::shell::{Shell, ShellStats};
 use mesopush_executor::{CameraFrame, Executor, LogEvent, MemStore, StampedFrame};
 use mesopush_firmware_sim::camera::SimCamera;
@@ -31,37 +31,6 @@ use mesopush_protocol::{FRAME_BUF_LEN, LinkConfig};
 use std::io;
 use std::path::Path;
 use std::sync::Arc;
-use std::time::Duration;
-
-/// Receiving end of an in-memory line.
-struct ChanRead(Receiver<Chunk>);
-/// Sending end of an in-memory line.
-struct ChanWrite(Sender<Chunk>);
-
-impl ByteRead for ChanRead {
-    fn read_bytes(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        match self.0.recv_timeout(Duration::from_millis(10)) {
-            Ok(c) => {
-                let n = c.bytes().len().min(buf.len());
-                buf[..n].copy_from_slice(&c.bytes()[..n]);
-                Ok(n)
-            }
-            Err(crossbeam_channel::RecvTimeoutError::Timeout) => Ok(0),
-            Err(_) => Err(io::Error::new(io::ErrorKind::BrokenPipe, "line closed")),
-        }
-    }
-}
-
-impl ByteWrite for ChanWrite {
-    fn write_bytes(&mut self, bytes: &[u8]) -> io::Result<()> {
-        for piece in bytes.chunks(CHUNK_BYTES) {
-            self.0
-                .send(Chunk::new(piece))
-                .map_err(|_| io::Error::new(io::ErrorKind::BrokenPipe, "line closed"))?;
-        }
-        Ok(())
-    }
-}
 
 /// Frames queued for the painter thread (more: the frame is counted lost).
 const PAINT_QUEUE: usize = 4;
@@ -80,7 +49,7 @@ pub fn run_realtime(
         link_corrupt: 0.0,
         link_duplicate: 0.0,
         link_delay: 0.0,
-        ..spec.world.spec.faults.to_config()?
+        ..super::world_file::validated_faults(&spec.world.spec.faults)?
     };
     let clock = Arc::new(MonotonicClock::new());
     let pty = PtyLine::open()?;
@@ -99,7 +68,7 @@ pub fn run_realtime(
     let shell_clock = clock.clone();
     let shell = std::thread::spawn(move || {
         let mut stats = ShellStats::default();
-        let host = (ChanRead(to_exec_rx), ChanWrite(to_host_tx));
+        let host = (PipeReader::from(to_exec_rx), PipeWriter::from(to_host_tx));
         let end = Shell::run(
             &mut endpoint,
             &*shell_clock,

@@ -213,7 +213,7 @@ fn run_simulated(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<TrialReport, Error> {
     let prep = prepare(spec, out_dir)?;
-    let faults = spec.world.spec.faults.to_config()?;
+    let faults = super::world_file::validated_faults(&spec.world.spec.faults)?;
     let session_id = 7_000 + prep.rng.fork(11).below(1000) as u16;
     let host = HostSession::new(&spec.plan, SessionGoal::FlashAndRun, session_id)?;
     let (tx, rx) = crossbeam_channel::bounded(256);

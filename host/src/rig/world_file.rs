@@ -127,66 +127,10 @@ impl CameraSpec {
     }
 }
 
-/// Faults to inject (see `mesopush_firmware_sim::FaultConfig`; all default to none, line
-/// latency 200 ± 100 µs).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-#[allow(missing_docs)]
-pub struct FaultSpec {
-    pub link_drop: f64,
-    pub link_corrupt: f64,
-    pub link_duplicate: f64,
-    pub link_delay: f64,
-    pub link_latency_us: u64,
-    pub link_jitter_us: u64,
-    pub link_delay_us: u64,
-    pub stall_per_s: f64,
-    pub limit_switch_per_s: f64,
-    pub reboot_per_s: f64,
-    pub frame_drop: f64,
-    pub frame_black: f64,
-}
-
-impl Default for FaultSpec {
-    fn default() -> Self {
-        let f = FaultConfig::NONE;
-        Self {
-            link_drop: f.link_drop,
-            link_corrupt: f.link_corrupt,
-            link_duplicate: f.link_duplicate,
-            link_delay: f.link_delay,
-            link_latency_us: f.link_latency_us,
-            link_jitter_us: f.link_jitter_us,
-            link_delay_us: f.link_delay_us,
-            stall_per_s: f.stall_per_s,
-            limit_switch_per_s: f.limit_switch_per_s,
-            reboot_per_s: f.reboot_per_s,
-            frame_drop: f.frame_drop,
-            frame_black: f.frame_black,
-        }
-    }
-}
-
-impl FaultSpec {
-    /// As the firmware simulator's config (validated).
-    pub fn to_config(&self) -> Result<FaultConfig, Error> {
-        let c = FaultConfig {
-            link_drop: self.link_drop,
-            link_corrupt: self.link_corrupt,
-            link_duplicate: self.link_duplicate,
-            link_delay: self.link_delay,
-            link_latency_us: self.link_latency_us,
-            link_jitter_us: self.link_jitter_us,
-            link_delay_us: self.link_delay_us,
-            stall_per_s: self.stall_per_s,
-            limit_switch_per_s: self.limit_switch_per_s,
-            reboot_per_s: self.reboot_per_s,
-            frame_drop: self.frame_drop,
-            frame_black: self.frame_black,
-        };
-        c.validate().map_err(|e| Error::invalid("world faults", e.to_string()))?;
-        Ok(c)
-    }
+/// The world's faults, validated (probabilities in `[0, 1]`, rates non-negative).
+pub fn validated_faults(f: &FaultConfig) -> Result<FaultConfig, Error> {
+    f.validate().map_err(|e| Error::invalid("world faults", e.to_string()))?;
+    Ok(*f)
 }
 
 /// A parsed world file.
@@ -210,7 +154,7 @@ pub struct WorldSpec {
     pub camera: CameraSpec,
     /// Faults to inject.
     #[serde(default)]
-    pub faults: FaultSpec,
+    pub faults: FaultConfig,
     /// Undeclared effects (default: none). The one place a world declares them: the
     /// physical ones (compliance, adhesion, friction patch, speed friction) are copied into
     /// the world's model; backlash, camera latency and scale error act in the world
@@ -251,7 +195,7 @@ impl WorldFile {
         };
         let model = with_physical_effects(model, &spec.effects)?;
         model.validate()?;
-        spec.faults.to_config()?;
+        validated_faults(&spec.faults)?;
         spec.camera.calibration()?;
         let [w, h] = spec.camera.size_px;
         if !(16..=4096).contains(&w) || !(16..=4096).contains(&h) {
