@@ -45,15 +45,8 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let mut frames_csv = csv::Writer::from_path(args.out.join("frames.csv"))?;
     frames_csv.write_record(["index", "file", "t_capture_us"])?;
     let mut truth_csv = csv::Writer::from_path(args.out.join("truth.csv"))?;
-    truth_csv.write_record([
-        "frame",
-        "t_us",
-        "x_um",
-        "y_um",
-        "theta_rad",
-        "probe_tip_x_um",
-        "probe_tip_y_um",
-    ])?;
+    // pose.csv's columns up to the tip, so truth and tracking line up column by column
+    truth_csv.write_record(&mesopush_host::vision::folder::POSE_CSV_HEADER[..7])?;
     for k in 0..args.frames {
         let (pose, tip) = demo_sequence_frame(&peg, &needle, k, args.frames);
         let scene = Scene { peg: Some(&peg), peg_pose: pose, probe_tip: Some(tip), ..empty };
