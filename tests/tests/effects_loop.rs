@@ -188,6 +188,26 @@ fn scale_error_makes_tracked_positions_grow_from_the_scale_origin() {
     assert!(naive > 40.0, "seed {seed}: {naive} µm");
 }
 
+/// Regression: with a 2 % scale error every frame's blob was 4 % too large, the tracker
+/// flagged every frame `shape_mismatch`, and the trial could not be judged. The tracker now
+/// learns the peg's apparent size from the first frames, says so in events.csv, and judges.
+#[test]
+fn a_scale_error_is_learned_reported_and_the_trial_still_judged() {
+    let (seed, err) = (44, 0.02);
+    let dir = tempfile::tempdir().unwrap();
+    let w = world(&format!("scale_error = [{err}, {err}]\nscale_origin_um = [0.0, 0.0]"));
+    let r = run(push_plan(), w, seed, &dir.path().join("t"));
+    assert!(r.inserted.is_some(), "seed {seed}: not judged: {r:?}");
+    assert!(r.frames_compared > 20, "seed {seed}: {} unflagged frames", r.frames_compared);
+    let events = std::fs::read_to_string(r.dir.join("events.csv")).unwrap();
+    let line = events.lines().find(|l| l.contains(",apparent_scale,"));
+    let line = line.unwrap_or_else(|| panic!("seed {seed}: no apparent_scale event:\n{events}"));
+    let ratio: f64 = line.split("area_ratio=").nth(1).unwrap()[..6].parse().unwrap();
+    let want = (1.0 + err) * (1.0 + err);
+    println!("seed {seed}: {line}");
+    assert!((ratio - want).abs() < 0.006, "seed {seed}: area ratio {ratio}, want {want:.4}");
+}
+
 /// Tracked poses (pose.csv) of a finished trial: t_us, x, y, θ.
 fn tracked(dir: &Path) -> Vec<(i64, f64, f64, f64)> {
     let trial = Trial::load(dir).expect("trial reads back");

@@ -71,11 +71,16 @@ pub struct Completed {
     pub tracked: u64,
 }
 
+/// A tracked pose and whether the tracker flagged it.
+type TrackedRow = (PoseRow, bool);
+
+/// The tracked poses (with whether each was flagged) and the tracker's learned apparent
+/// scale, if any.
 fn tracked_poses(
     dir: &Path,
     c: &Completion,
     frames: &[FrameRow],
-) -> Result<Vec<(PoseRow, bool)>, Error> {
+) -> Result<(Vec<TrackedRow>, Option<f64>), Error> {
     let bg_path = dir.join("background.png");
     let bg = load_gray(&bg_path)?;
     let settings = TrackSettings {
@@ -104,7 +109,7 @@ fn tracked_poses(
         };
         out.push((row, m.is_flagged()));
     }
-    Ok(out)
+    Ok((out, tracker.apparent_scale()))
 }
 
 fn load_gray(path: &Path) -> Result<image::GrayImage, Error> {
@@ -162,7 +167,7 @@ fn probe_rows(c: &Completion) -> Vec<ProbeRow> {
 /// `background.png`, the empty fixture's frame) into a trial log.
 pub fn complete_trial(dir: &Path, c: &Completion) -> Result<Completed, Error> {
     let frames: Vec<FrameRow> = read_rows(&dir.join("frames.csv"))?;
-    let tracked = tracked_poses(dir, c, &frames)?;
+    let (tracked, apparent_scale) = tracked_poses(dir, c, &frames)?;
     let poses: Vec<PoseRow> = tracked.iter().map(|t| t.0).collect();
     write_atomic(&dir.join("pose.csv"), &csv_bytes(&dir.join("pose.csv"), &poses)?)?;
     write_atomic(&dir.join("probe.csv"), &csv_bytes(&dir.join("probe.csv"), &probe_rows(c))?)?;
@@ -175,6 +180,11 @@ pub fn complete_trial(dir: &Path, c: &Completion) -> Result<Completed, Error> {
         kind: "verdict".into(),
         detail: format!("inserted={}; final_pose={final_pose:?}", opt_bool(inserted)),
     };
+    if let Some(r) = apparent_scale {
+        let detail = crate::vision::scale_lock::describe(r);
+        let row = EventRow { t_us: verdict.t_us, kind: "apparent_scale".into(), detail };
+        append_event(&dir.join("events.csv"), &row)?;
+    }
     append_event(&dir.join("events.csv"), &verdict)?;
     let mut meta = TrialMeta::new(&c.trial_id, "rig", Model::default().part);
     meta.fixture = Some(fixture);

@@ -115,6 +115,8 @@ pub struct Recorder {
     index: u64,
     /// Frame index of the last frame handed to the tracker (the gap scales its jump check).
     last_tracked: Option<u64>,
+    /// Whether the tracker's learned apparent scale went into events.csv.
+    scale_said: bool,
     out: RecorderResult0,
 }
 
@@ -147,6 +149,7 @@ impl Recorder {
             rows,
             index: 0,
             last_tracked: None,
+            scale_said: false,
             out: RecorderResult0::default(),
         })
     }
@@ -333,6 +336,10 @@ impl Recorder {
         let periods = self.last_tracked.map_or(1, |i| index.saturating_sub(i));
         self.last_tracked = Some(index);
         let m = self.tracker.track_after(img, u32::try_from(periods).unwrap_or(u32::MAX))?;
+        if let (false, Some(r)) = (self.scale_said, self.tracker.apparent_scale()) {
+            self.scale_said = true;
+            self.event(t_abs, "apparent_scale", crate::vision::scale_lock::describe(r))?;
+        }
         let Some(pose) = m.pose else { return Ok(()) };
         let row = PoseRow {
             t_us: t_capture,

@@ -24,6 +24,7 @@ use crate::vision::calib::Calibration;
 use crate::vision::moments::{Moments, polygon_moments};
 use crate::vision::morph::{Roi, label_components_into};
 use crate::vision::probe::{ProbeBuffers, ProbeSettings, separate_probe, snap_to_contact};
+use crate::vision::scale_lock::{ScaleLearning, ScaleLock, scaled};
 use crate::vision::scene::paper_peg;
 use crate::vision::threshold::{Threshold, threshold_level};
 use crate::vision::weigh::{Blob, Weighed, weigh};
@@ -56,6 +57,9 @@ pub struct TrackSettings {
     pub max_step_rad: f64,
     /// Orientation the first frame of a sequence is taken to be near, rad (default 0).
     pub theta_hint_rad: f64,
+    /// Learning the peg's apparent size from a sequence's first frames (an image scale a
+    /// few per cent off; see [`ScaleLearning`]).
+    pub scale_learning: ScaleLearning,
 }
 
 impl Default for TrackSettings {
@@ -72,6 +76,7 @@ impl Default for TrackSettings {
             max_step_um: 400.0,
             max_step_rad: 0.35,
             theta_hint_rad: 0.0,
+            scale_learning: ScaleLearning::default(),
         }
     }
 }
@@ -83,6 +88,9 @@ pub struct Tracker {
     settings: TrackSettings,
     bg: Background,
     expected: Moments,
+    /// The part's moments as they appear (the learned apparent scale applied).
+    seen: Moments,
+    scale: ScaleLock,
     body_axis_rad: f64,
     buf: Buffers,
     /// The last trusted pose of the sequence and the frame periods since it.
@@ -112,7 +120,16 @@ impl Tracker {
         let bg = Background::new(background)?;
         let expected = polygon_moments(&settings.peg);
         let body_axis_rad = expected.major_axis_angle();
-        Ok(Self { settings, bg, expected, body_axis_rad, buf: Buffers::default(), trusted: None })
+        Ok(Self {
+            settings,
+            bg,
+            expected,
+            seen: expected,
+            scale: ScaleLock::default(),
+            body_axis_rad,
+            buf: Buffers::default(),
+            trusted: None,
+        })
     }
 
     /// The settings in use.
@@ -120,7 +137,14 @@ impl Tracker {
         &self.settings
     }
 
-    /// Forgets the sequence: the next [`Tracker::track`] starts from the θ hint again.
+    /// The peg's apparent area ÷ its part file's area, once a sequence has fixed it
+    /// ([`ScaleLearning`]): `√r − 1` is the image scale's error in length. `None` until then.
+    pub fn apparent_scale(&self) -> Option<f64> {
+        self.scale.locked()
+    }
+
+    /// Forgets the sequence: the next [`Tracker::track`] starts from the θ hint again (a
+    /// learned apparent scale belongs to the camera and is kept).
     pub fn reset(&mut self) {
         self.trusted = None;
     }
@@ -128,7 +152,7 @@ impl Tracker {
     /// Measures one frame on its own: θ is given on the branch nearest the θ hint.
     pub fn measure(&mut self, frame: &GrayImage) -> Result<Measurement, Error> {
         let hint = self.settings.theta_hint_rad;
-        self.measure_near(frame, hint)
+        Ok(self.measure_near(frame, hint)?.0)
     }
 
     /// Measures the next frame of a sequence, one frame period after the previous one:
@@ -145,7 +169,14 @@ impl Tracker {
             *n = n.saturating_add(periods.max(1));
         }
         let reference = self.trusted.map_or(self.settings.theta_hint_rad, |(p, _)| p.theta_rad);
-        let mut m = self.measure_near(frame, reference)?;
+        let (mut m, moments) = self.measure_near(frame, reference)?;
+        let whole = m.flags.iter().all(|f| *f == Flag::ShapeMismatch);
+        let sample = moments.as_ref().filter(|_| whole && m.pose.is_some());
+        if let Some(r) = self.scale.observe(sample, &self.expected, &self.settings.scale_learning) {
+            // this frame fixed the peg's apparent size: judge it again against it
+            self.seen = scaled(&self.expected, r);
+            m = self.measure_near(frame, reference)?.0;
+        }
         if let (Some(pose), Some((trusted, n))) = (m.pose, self.trusted) {
             let k = f64::from(n);
             let (max_um, max_rad) = (self.settings.max_step_um, self.settings.max_step_rad);
@@ -168,7 +199,7 @@ impl Tracker {
         &mut self,
         frame: &GrayImage,
         reference_rad: f64,
-    ) -> Result<Measurement, Error> {
+    ) -> Result<(Measurement, Option<Moments>), Error> {
         let mut buf = std::mem::take(&mut self.buf);
         let res = self
             .bg
@@ -178,7 +209,12 @@ impl Tracker {
         res
     }
 
-    fn measure_dark(&self, buf: &mut Buffers, reference_rad: f64) -> Measurement {
+    /// The measurement, and the blob's moments when there is one.
+    fn measure_dark(
+        &self,
+        buf: &mut Buffers,
+        reference_rad: f64,
+    ) -> (Measurement, Option<Moments>) {
         let (w, h) = (self.bg.width(), self.bg.height());
         let calib = &self.settings.calibration;
         let dark = &buf.dark;
@@ -218,7 +254,7 @@ impl Tracker {
             Weighed { moments: Some(moments), occluded_px, wall_px, wall_adjacent_px },
         )) = weighed
         else {
-            return Measurement {
+            let none = Measurement {
                 pose: None,
                 probe_tip_um,
                 confidence: 0.0,
@@ -226,6 +262,7 @@ impl Tracker {
                 threshold,
                 area_um2: 0.0,
             };
+            return (none, None);
         };
         let weighed = Weighed { moments: Some(moments), occluded_px, wall_px, wall_adjacent_px };
         let (pose, confidence, flags) = self.judge(&moments, bbox, &weighed, reference_rad);
@@ -240,7 +277,9 @@ impl Tracker {
             }
             _ => probe_tip_um,
         };
-        Measurement { pose: Some(pose), probe_tip_um, confidence, flags, threshold, area_um2 }
+        let m =
+            Measurement { pose: Some(pose), probe_tip_um, confidence, flags, threshold, area_um2 };
+        (m, Some(moments))
     }
 
     /// The pose from the moments, its confidence and its flags.
@@ -255,7 +294,7 @@ impl Tracker {
         let pose = Pose::new(moments.centroid.x, moments.centroid.y, theta);
         let s = &self.settings;
         let mut confidence =
-            shape_confidence(moments, &self.expected, s.area_tolerance, s.moment_tolerance);
+            shape_confidence(moments, &self.seen, s.area_tolerance, s.moment_tolerance);
         let mut flags = Vec::new();
         if self.near_border(bbox, &pose) {
             flags.push(Flag::OutOfField);
