@@ -10,32 +10,187 @@
 //! faults (stall, limit switch, reboot) and camera drops are.
 
 use super::ctrl_serve::ServedController;
-use super::painter::Deferred;
+use super::painter::{Deferred, Painter};
 use super::pty::PtyLine;
 use super::recorder::RecMsg;
 use super::session::{HostSession, SessionGoal};
 use super::simloop::{CAP, EW, LA, Q};
 use super::trial::{Finished, Progress, TAIL_US, TrialReport, TrialSpec, finish, prepare};
-use super::world::TruthSample;
+use super::world::{RigWorld, TruthSample};
 use crate::Error;
-use crossbeam_channel::{Sender, TrySendError, bounded};
+use crossbeam_channel::{Receiver, Sender, bounded};
 use image::GrayImage;
 use mesopush_executor::clock::{Clock, MonotonicClock};
 use mesopush_executor::endpoint::Endpoint;
 use mesopush_executor::shell::port::{CHUNK_BYTES, Chunk, PipeReader, PipeWriter, split_tty};
+use mesopush_executor::shell::runner::ShellEnd;
 use mesopush_executor::shell::{Shell, ShellStats};
-use mesopush_executor::{CameraFrame, Executor, LogEvent, MemStore, StampedFrame};
-use mesopush_firmware_sim::camera::SimCamera;
+use mesopush_executor::{CameraFrame, Executor, ExecutorConfig, LogEvent, MemStore, StampedFrame};
+use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
 use mesopush_firmware_sim::{ControllerNode, CtrlConfig, FaultConfig};
 use mesopush_protocol::{FRAME_BUF_LEN, LinkConfig};
+use serialport::TTYPort;
 use std::io;
 use std::path::Path;
 use std::sync::Arc;
+use std::thread::JoinHandle;
 
 /// Frames queued for the painter thread (more: the frame is counted lost).
 const PAINT_QUEUE: usize = 4;
 /// How long a stamped frame waits for its image before it is given up, µs.
 const STAMP_WAIT_US: u64 = 500_000;
+
+/// The executor's std shell on its own thread, and this thread's ends of its lines.
+struct ShellThread {
+    handle: JoinHandle<(ShellEnd, ShellStats)>,
+    to_exec: Sender<Chunk>,
+    to_host: Receiver<Chunk>,
+    frames: Sender<CameraFrame>,
+    log: Receiver<LogEvent>,
+    stop: Sender<()>,
+}
+
+impl ShellThread {
+    /// Starts the shell with `config`, its controller line on `ctrl_port` (the pty's slave).
+    fn spawn(
+        config: ExecutorConfig,
+        ctrl_port: TTYPort,
+        ctrl_path: &str,
+        clock: Arc<MonotonicClock>,
+    ) -> Result<Self, Error> {
+        let ctrl = split_tty(ctrl_port)
+            .map_err(|e| Error::io(ctrl_path, io::Error::other(e.to_string())))?;
+        let (to_exec, to_exec_rx) = bounded(1024);
+        let (to_host_tx, to_host) = bounded::<Chunk>(1024);
+        let (frames, frame_rx) = bounded::<CameraFrame>(64);
+        let (log_tx, log) = bounded::<LogEvent>(4096);
+        let (stop, stop_rx) = bounded::<()>(1);
+        let core = Executor::<_, CAP, LA>::new(config, MemStore::<CAP>::new())
+            .map_err(|e| Error::invalid("executor config", format!("{e:?}")))?;
+        let mut endpoint = Endpoint::<_, CAP, LA, EW>::new(core, LinkConfig::DEFAULT, 1);
+        let handle = std::thread::spawn(move || {
+            let mut stats = ShellStats::default();
+            let host = (PipeReader::from(to_exec_rx), PipeWriter::from(to_host_tx));
+            let end = Shell::run(
+                &mut endpoint,
+                &*clock,
+                host,
+                ctrl,
+                Some(frame_rx),
+                log_tx,
+                stop_rx,
+                &mut stats,
+            );
+            (end, stats)
+        });
+        Ok(Self { handle, to_exec, to_host, frames, log, stop })
+    }
+
+    fn join(self) {
+        let _ = self.stop.send(());
+        let _ = self.handle.join();
+    }
+}
+
+/// The painter thread: truth in, image out (the controller's loop never renders).
+struct PainterThread {
+    truth: Sender<(u32, TruthSample)>,
+    images: Receiver<(u32, GrayImage)>,
+    handle: JoinHandle<()>,
+}
+
+impl PainterThread {
+    fn spawn(mut painter: Painter) -> Self {
+        let (truth, truth_rx) = bounded::<(u32, TruthSample)>(PAINT_QUEUE);
+        let (image_tx, images) = bounded::<(u32, GrayImage)>(PAINT_QUEUE);
+        let handle = std::thread::spawn(move || {
+            for (seq, t) in truth_rx {
+                if image_tx.send((seq, painter.paint_image(&t))).is_err() {
+                    break;
+                }
+            }
+        });
+        Self { truth, images, handle }
+    }
+
+    fn join(self) {
+        drop(self.truth);
+        let _ = self.handle.join();
+    }
+}
+
+/// What goes to the recorder: never blocks (a full queue counts the record lost), and pairs
+/// each stamped frame with its image once the painter has drawn it.
+struct Relay {
+    rec: Sender<RecMsg>,
+    lost: u64,
+    images: Vec<(u32, Option<GrayImage>)>,
+    stamped_waiting: Vec<(StampedFrame, u64)>,
+}
+
+impl Relay {
+    fn forward(&mut self, msg: RecMsg) {
+        if self.rec.try_send(msg).is_err() {
+            self.lost += 1;
+        }
+    }
+
+    /// A frame the camera delivered: its stamp to the executor, its truth to the painter (a
+    /// full queue skips it: its stamp then waits in vain and is counted lost); a black frame
+    /// (no truth) has no image.
+    fn on_camera_frame(
+        &mut self,
+        frame: SimFrame<TruthSample>,
+        stamp_us: u64,
+        shell: &ShellThread,
+        painter: &PainterThread,
+    ) {
+        let cam = CameraFrame {
+            frame_seq: frame.frame_seq,
+            driver_stamp_us: Some(stamp_us),
+            black: frame.black,
+        };
+        if shell.frames.try_send(cam).is_err() {
+            self.lost += 1;
+        }
+        match frame.image {
+            Some(t) => drop(painter.truth.try_send((frame.frame_seq, t))),
+            None => self.images.push((frame.frame_seq, None)),
+        }
+    }
+
+    /// The executor's log records to the recorder; frames it stamped wait for their image.
+    fn on_log(&mut self, now: u64, e: LogEvent) {
+        if let LogEvent::Frame(stamped) = e {
+            self.stamped_waiting.push((stamped, now));
+        }
+        self.forward(RecMsg::Log(now, e));
+    }
+
+    /// Sends each stamped frame whose image the painter has drawn; gives up on one after
+    /// [`STAMP_WAIT_US`].
+    fn release_frames(&mut self, now: u64, painter: &PainterThread) {
+        while let Ok((seq, image)) = painter.images.try_recv() {
+            self.images.push((seq, Some(image)));
+        }
+        if self.images.len() > 8 {
+            self.images.drain(..self.images.len() - 8);
+        }
+        let mut waiting = std::mem::take(&mut self.stamped_waiting);
+        waiting.retain(|(stamped, arrival_us)| {
+            let seq = stamped.stamp.frame_seq;
+            let Some(i) = self.images.iter().position(|(s, _)| *s == seq) else {
+                let still = now < arrival_us + STAMP_WAIT_US;
+                self.lost += u64::from(!still);
+                return still;
+            };
+            let image = self.images.remove(i).1;
+            self.forward(RecMsg::Frame { stamped: *stamped, arrival_us: *arrival_us, image });
+            false
+        });
+        self.stamped_waiting = waiting;
+    }
+}
 
 /// Runs `spec` in real time.
 pub fn run_realtime(
@@ -55,32 +210,7 @@ pub fn run_realtime(
     let pty = PtyLine::open()?;
     let path = pty.path().to_string();
     let (master, ctrl_port, _slave) = pty.into_parts();
-    let ctrl =
-        split_tty(ctrl_port).map_err(|e| Error::io(&path, io::Error::other(e.to_string())))?;
-    let (to_exec_tx, to_exec_rx) = bounded(1024);
-    let (to_host_tx, to_host_rx) = bounded::<Chunk>(1024);
-    let (frame_tx, frame_rx) = bounded::<CameraFrame>(64);
-    let (log_tx, log_rx) = bounded::<LogEvent>(4096);
-    let (stop_tx, stop_rx) = bounded::<()>(1);
-    let core = Executor::<_, CAP, LA>::new(prep.config, MemStore::<CAP>::new())
-        .map_err(|e| Error::invalid("executor config", format!("{e:?}")))?;
-    let mut endpoint = Endpoint::<_, CAP, LA, EW>::new(core, LinkConfig::DEFAULT, 1);
-    let shell_clock = clock.clone();
-    let shell = std::thread::spawn(move || {
-        let mut stats = ShellStats::default();
-        let host = (PipeReader::from(to_exec_rx), PipeWriter::from(to_host_tx));
-        let end = Shell::run(
-            &mut endpoint,
-            &*shell_clock,
-            host,
-            ctrl,
-            Some(frame_rx),
-            log_tx,
-            stop_rx,
-            &mut stats,
-        );
-        (end, stats)
-    });
+    let shell = ShellThread::spawn(prep.config, ctrl_port, &path, clock.clone())?;
     let (rec_tx, rec_rx) = bounded(256);
     let recorder = prep.recorder;
     let rec = std::thread::spawn(move || recorder.run(rec_rx));
@@ -97,105 +227,19 @@ pub fn run_realtime(
     let mut ctrl =
         ServedController::new(master, node, camera).map_err(|e| Error::io("pty master", e))?;
     let mut world = prep.world;
-    let (paint_tx, paint_rx) = bounded::<(u32, TruthSample)>(PAINT_QUEUE);
-    let (image_tx, image_rx) = bounded::<(u32, GrayImage)>(PAINT_QUEUE);
-    let mut painter = world.painter();
-    let painting = std::thread::spawn(move || {
-        for (seq, truth) in paint_rx {
-            if image_tx.send((seq, painter.paint_image(&truth))).is_err() {
-                break;
-            }
-        }
-    });
-    let mut stamped_waiting: Vec<(StampedFrame, u64)> = Vec::new();
+    let painter = PainterThread::spawn(world.painter());
     let mut host = HostSession::new(&spec.plan, SessionGoal::FlashAndRun, 7_001)?;
-    let mut images: Vec<(u32, Option<GrayImage>)> = Vec::new();
-    let mut lost = 0u64;
-    let mut out = [0u8; FRAME_BUF_LEN];
-    let total_s = prep.plan_duration_s + 2.0;
-    let max_us = ((prep.plan_duration_s + 30.0) * 1e6) as u64;
-    let (mut ended_at, mut next_progress) = (None, 0);
-    let forward = |tx: &Sender<RecMsg>, msg: RecMsg, lost: &mut u64| match tx.try_send(msg) {
-        Ok(()) => {}
-        Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => *lost += 1,
+    let mut relay = Relay { rec: rec_tx, lost: 0, images: Vec::new(), stamped_waiting: Vec::new() };
+    let limits = Limits {
+        total_s: prep.plan_duration_s + 2.0,
+        max_us: ((prep.plan_duration_s + 30.0) * 1e6) as u64,
     };
-    let result: Result<(), Error> = loop {
-        let now = clock.now_us();
-        let frame = match ctrl.step(now, &mut Deferred { world: &mut world }) {
-            Ok((_, frame)) => frame,
-            Err(e) => break Err(Error::io("pty master", e)),
-        };
-        if let Some(frame) = frame {
-            let cam = CameraFrame {
-                frame_seq: frame.frame_seq,
-                driver_stamp_us: Some(world.driver_stamp_us(frame.exposure_sim_us)),
-                black: frame.black,
-            };
-            if frame_tx.try_send(cam).is_err() {
-                lost += 1;
-            }
-            // Drawn on the painter thread (a full queue skips it: its stamp then waits in
-            // vain and is counted lost below); a black frame (no truth) has no image.
-            match frame.image {
-                Some(t) => drop(paint_tx.try_send((frame.frame_seq, t))),
-                None => images.push((frame.frame_seq, None)),
-            }
-        }
-        while let Ok((seq, image)) = image_rx.try_recv() {
-            images.push((seq, Some(image)));
-        }
-        if images.len() > 8 {
-            images.drain(..images.len() - 8);
-        }
-        while let Ok(c) = to_host_rx.try_recv() {
-            host.on_bytes(now, c.bytes());
-        }
-        if let Err(e) = host.poll(now) {
-            break Err(e);
-        }
-        while let Some(f) = host.transmit(now, &mut out) {
-            for piece in f.chunks(CHUNK_BYTES) {
-                let _ = to_exec_tx.send(Chunk::new(piece));
-            }
-        }
-        for (t, msg) in std::mem::take(&mut host.inbox) {
-            forward(&rec_tx, RecMsg::Host(t, msg), &mut lost);
-        }
-        while let Ok(e) = log_rx.try_recv() {
-            if let LogEvent::Frame(stamped) = e {
-                stamped_waiting.push((stamped, now));
-            }
-            forward(&rec_tx, RecMsg::Log(now, e), &mut lost);
-        }
-        // A stamped frame goes to the recorder with its image once the painter drew it.
-        stamped_waiting.retain(|(stamped, arrival_us)| {
-            let seq = stamped.stamp.frame_seq;
-            let Some(i) = images.iter().position(|(s, _)| *s == seq) else {
-                let waiting = now < arrival_us + STAMP_WAIT_US;
-                lost += u64::from(!waiting);
-                return waiting;
-            };
-            let image = images.remove(i).1;
-            let msg = RecMsg::Frame { stamped: *stamped, arrival_us: *arrival_us, image };
-            forward(&rec_tx, msg, &mut lost);
-            false
-        });
-        if now >= next_progress {
-            next_progress = now + 100_000;
-            progress(Progress { t_s: now as f64 * 1e-6, total_s });
-        }
-        if host.end().is_some() && ended_at.is_none() {
-            ended_at = Some(now);
-        }
-        if ended_at.is_some_and(|t| now >= t + TAIL_US) || now > max_us {
-            break Ok(());
-        }
-    };
-    let _ = stop_tx.send(());
-    let _ = shell.join();
-    drop(paint_tx);
-    let _ = painting.join();
-    drop(rec_tx);
+    let mut lp = Loop { ctrl: &mut ctrl, world: &mut world, host: &mut host, relay: &mut relay };
+    let result = lp.run(&clock, &shell, &painter, limits, progress);
+    shell.join();
+    painter.join();
+    let lost = relay.lost;
+    drop(relay);
     let recorded =
         rec.join().map_err(|_| Error::invalid("recorder", "the recorder panicked"))??;
     result?;
@@ -209,4 +253,92 @@ pub fn run_realtime(
         camera_latency_us: world.camera_latency_us(),
     };
     finish(out_dir, recorded, world.truth(), world.fixture(), done)
+}
+
+/// How long the loop may run.
+#[derive(Debug, Clone, Copy)]
+struct Limits {
+    /// The trial's expected length for the progress bar, s.
+    total_s: f64,
+    /// Give up at this clock time, µs.
+    max_us: u64,
+}
+
+/// This thread's loop: the controller on the pty master, the world, the host session.
+struct Loop<'a> {
+    ctrl: &'a mut ServedController,
+    world: &'a mut RigWorld,
+    host: &'a mut HostSession,
+    relay: &'a mut Relay,
+}
+
+impl Loop<'_> {
+    fn run(
+        &mut self,
+        clock: &MonotonicClock,
+        shell: &ShellThread,
+        painter: &PainterThread,
+        limits: Limits,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<(), Error> {
+        let mut out = [0u8; FRAME_BUF_LEN];
+        let (mut ended_at, mut next_progress) = (None, 0);
+        loop {
+            let now = clock.now_us();
+            self.serve_controller(now, shell, painter)?;
+            self.relay.release_frames(now, painter);
+            self.serve_host(now, shell, &mut out)?;
+            while let Ok(e) = shell.log.try_recv() {
+                self.relay.on_log(now, e);
+            }
+            if now >= next_progress {
+                next_progress = now + 100_000;
+                progress(Progress { t_s: now as f64 * 1e-6, total_s: limits.total_s });
+            }
+            if self.host.end().is_some() && ended_at.is_none() {
+                ended_at = Some(now);
+            }
+            if ended_at.is_some_and(|t| now >= t + TAIL_US) || now > limits.max_us {
+                return Ok(());
+            }
+        }
+    }
+
+    fn serve_controller(
+        &mut self,
+        now: u64,
+        shell: &ShellThread,
+        painter: &PainterThread,
+    ) -> Result<(), Error> {
+        let (_, frame) = self
+            .ctrl
+            .step(now, &mut Deferred { world: self.world })
+            .map_err(|e| Error::io("pty master", e))?;
+        if let Some(frame) = frame {
+            let stamp_us = self.world.driver_stamp_us(frame.exposure_sim_us);
+            self.relay.on_camera_frame(frame, stamp_us, shell, painter);
+        }
+        Ok(())
+    }
+
+    fn serve_host(
+        &mut self,
+        now: u64,
+        shell: &ShellThread,
+        out: &mut [u8; FRAME_BUF_LEN],
+    ) -> Result<(), Error> {
+        while let Ok(c) = shell.to_host.try_recv() {
+            self.host.on_bytes(now, c.bytes());
+        }
+        self.host.poll(now)?;
+        while let Some(f) = self.host.transmit(now, out) {
+            for piece in f.chunks(CHUNK_BYTES) {
+                let _ = shell.to_exec.send(Chunk::new(piece));
+            }
+        }
+        for (t, msg) in std::mem::take(&mut self.host.inbox) {
+            self.relay.forward(RecMsg::Host(t, msg));
+        }
+        Ok(())
+    }
 }
