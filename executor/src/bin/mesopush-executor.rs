@@ -334,13 +334,7 @@ fn run(args: Args) -> Result<()> {
     let mut stats = ShellStats::default();
     // The recorder and camera threads keep the normal scheduler; the loop and its readers
     // get the real-time set-up.
-    // (A flattened RtArgs here breaks clap's optional default subcommand: fields repeated.)
-    let rt = RtArgs {
-        rt_priority: args.rt_priority,
-        pin_cpu: args.pin_cpu,
-        mlock: args.mlock,
-        spin_us: args.spin_us,
-    };
+    let rt = args.rt();
     warn_rt(&apply(&rt.options()));
     let opts = rt.shell();
     let lines = Lines { ctrl, frames: side.frames.clone(), log_tx, stop_rx, opts };
@@ -358,7 +352,27 @@ fn run(args: Args) -> Result<()> {
     side.stop.store(true, Ordering::Relaxed);
     let camera_end = side.camera.map(|t| t.join());
     let recorded = side.recorder.join();
-    let c = &side.counters;
+    report_stop(&end, &stats, &endpoint, camera_end, &side.counters);
+    match recorded {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return Err(e).context("recorder"),
+        Err(_) => bail!("the recorder thread panicked"),
+    }
+    match end {
+        ShellEnd::Stopped => Ok(()),
+        ShellEnd::HostLine(e) => Err(e).context("host line"),
+        ShellEnd::CtrlLine(e) => Err(e).context("controller line"),
+    }
+}
+
+/// What the executor says on stderr when it stops: the loop's timing and the camera's counts.
+fn report_stop<S: PlanStore>(
+    end: &ShellEnd,
+    stats: &ShellStats,
+    endpoint: &Endpoint<S, CAP, LA, W>,
+    camera_end: Option<impl std::fmt::Debug>,
+    c: &CameraCounters,
+) {
     let sends = &stats.sends;
     eprintln!(
         "executor stopped: {end:?}; loop: {} passes, max late {} µs, {} log records ({} \
@@ -383,15 +397,18 @@ fn run(args: Args) -> Result<()> {
         c.loop_dropped.load(Ordering::Relaxed),
         c.recorder_dropped.load(Ordering::Relaxed),
     );
-    match recorded {
-        Ok(Ok(())) => {}
-        Ok(Err(e)) => return Err(e).context("recorder"),
-        Err(_) => bail!("the recorder thread panicked"),
-    }
-    match end {
-        ShellEnd::Stopped => Ok(()),
-        ShellEnd::HostLine(e) => Err(e).context("host line"),
-        ShellEnd::CtrlLine(e) => Err(e).context("controller line"),
+}
+
+impl Args {
+    /// The real-time flags. (They are repeated in `Args` rather than flattened from
+    /// [`RtArgs`]: a flattened struct breaks clap's optional default subcommand.)
+    fn rt(&self) -> RtArgs {
+        RtArgs {
+            rt_priority: self.rt_priority,
+            pin_cpu: self.pin_cpu,
+            mlock: self.mlock,
+            spin_us: self.spin_us,
+        }
     }
 }
 
