@@ -287,6 +287,34 @@ pub(crate) struct Finished {
     pub camera_latency_us: i64,
 }
 
+/// The peg at rest: the last unflagged frame exposed after the trial ended. Earlier frames
+/// show it still moving; when every frame after the end is flagged (the needle over the
+/// peg, say) there is nothing to judge on, and the report says so (`inserted` absent)
+/// rather than guessing from an older frame.
+fn final_pose(rec: &RecorderResult) -> Option<Pose> {
+    let end_us = rec.end.map(|(t, _)| t);
+    let last: Option<&Tracked> = rec
+        .tracked
+        .iter()
+        .rev()
+        .find(|t| !t.flagged && end_us.is_none_or(|e| t.t_exposure_us >= e));
+    last.map(|t| Pose::new(t.row.x_um, t.row.y_um, t.row.theta_rad))
+}
+
+/// How the trial ended, and why: from the executor's end event, else the session's refusal.
+fn end_state(
+    session: Option<&SessionEnd>,
+    end: Option<(u64, TrialEventKind)>,
+) -> (TrialState, Option<String>) {
+    match (session, end) {
+        (_, Some((_, TrialEventKind::Done))) => (TrialState::Done, None),
+        (_, Some((_, TrialEventKind::Aborted))) => (TrialState::Aborted, None),
+        (_, Some((_, TrialEventKind::Faulted(f)))) => (TrialState::Faulted, Some(format!("{f:?}"))),
+        (Some(SessionEnd::Refused(r)), _) => (TrialState::Aborted, Some(r.clone())),
+        _ => (TrialState::Incomplete, Some("the trial did not end in time".to_string())),
+    }
+}
+
 /// Writes truth.csv, the verdict and the final trial.json; builds the report.
 pub(crate) fn finish(
     out_dir: &Path,
@@ -296,25 +324,9 @@ pub(crate) fn finish(
     done: Finished,
 ) -> Result<TrialReport, Error> {
     super::truth_log::write_truth(out_dir, truth, rec.t0_us.unwrap_or(0))?;
-    // Judged on the peg at rest: the last unflagged frame exposed after the trial ended.
-    // Earlier frames show it still moving; when every frame after the end is flagged (the
-    // needle over the peg, say) there is nothing to judge on, and the report says so
-    // (`inserted` absent) rather than guessing from an older frame.
-    let end_us = rec.end.map(|(t, _)| t);
-    let last: Option<&Tracked> = rec
-        .tracked
-        .iter()
-        .rev()
-        .find(|t| !t.flagged && end_us.is_none_or(|e| t.t_exposure_us >= e));
-    let final_pose = last.map(|t| Pose::new(t.row.x_um, t.row.y_um, t.row.theta_rad));
+    let final_pose = final_pose(&rec);
     let inserted = final_pose.map(|p| fixture.inserted(&Vec2::new(p.x_um, p.y_um)));
-    let (state, reason) = match (&done.end, rec.end) {
-        (_, Some((_, TrialEventKind::Done))) => (TrialState::Done, None),
-        (_, Some((_, TrialEventKind::Aborted))) => (TrialState::Aborted, None),
-        (_, Some((_, TrialEventKind::Faulted(f)))) => (TrialState::Faulted, Some(format!("{f:?}"))),
-        (Some(SessionEnd::Refused(r)), _) => (TrialState::Aborted, Some(r.clone())),
-        _ => (TrialState::Incomplete, Some("the trial did not end in time".to_string())),
-    };
+    let (state, reason) = end_state(done.end.as_ref(), rec.end);
     let (err_um, err_rad, compared) =
         track_error(&rec.tracked, truth, done.camera_latency_us).unwrap_or((0.0, 0.0, 0));
     let tracked_poses: Vec<Pose> = rec

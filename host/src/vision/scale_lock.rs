@@ -94,14 +94,24 @@ fn uniform_ratio(m: &Moments, part: &Moments, spread: f64) -> Option<f64> {
     (hi - lo <= spread).then(|| ratios.iter().sum::<f64>() / 3.0)
 }
 
+/// Length error below which the imaged size is said to agree with the part file (half a
+/// per cent: a few tenths of a pixel across the peg).
+const AGREES_LENGTH: f64 = 0.005;
+
 /// The trial-log event's detail for a learned area ratio `r` (events.csv kind
 /// `apparent_scale`).
 pub fn describe(r: f64) -> String {
-    let length_pct = 100.0 * (r.sqrt() - 1.0);
+    let length = r.sqrt() - 1.0;
+    let (area_pct, length_pct) = (100.0 * (r - 1.0), 100.0 * length);
+    if length.abs() < AGREES_LENGTH {
+        return format!(
+            "area_ratio={r:.4}; the peg's imaged size agrees with its part file \
+             ({length_pct:+.2} % in length)"
+        );
+    }
     format!(
-        "area_ratio={r:.4}; the peg appears {:+.2} % in area ({length_pct:+.2} % in length) \
-         against its part file: image scale calibration off by about that much",
-        100.0 * (r - 1.0)
+        "area_ratio={r:.4}; the peg appears {area_pct:+.2} % in area ({length_pct:+.2} % in \
+         length) against its part file: image scale calibration off by about that much"
     )
 }
 
@@ -170,5 +180,17 @@ mod tests {
         for _ in 0..10 {
             assert_eq!(never.observe(Some(&scaled(&p, 1.03)), &p, &off), None);
         }
+    }
+
+    #[test]
+    fn the_report_says_agreement_or_the_calibration_error() {
+        assert!(describe(1.0010).contains("agrees with its part file"), "{}", describe(1.001));
+        let off = describe(1.0404);
+        assert!(
+            off.contains("+4.04 % in area")
+                && off.contains("+2.00 % in")
+                && off.contains("calibration"),
+            "{off}"
+        );
     }
 }
