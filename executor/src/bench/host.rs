@@ -37,13 +37,7 @@ pub(crate) fn drive(
     give_up_us: u64,
 ) -> io::Result<ExecToHost> {
     let mut link: Link<HostToExec, ExecToHost, 32> = Link::new(LinkConfig::DEFAULT, 601);
-    let image: Vec<u8> = steps.iter().flat_map(|s| s.to_image_bytes()).collect();
-    let header = FlashHeader::for_image(PLAN_ID, &image)
-        .map_err(|e| io::Error::other(format!("bench plan: {e:?}")))?;
-    let mut outbox = vec![HostToExec::Hello(Hello::CURRENT), HostToExec::FlashBegin(header)];
-    outbox.extend(image_chunks(PLAN_ID, &image).map(HostToExec::FlashChunk));
-    outbox.push(HostToExec::FlashCommit { plan_id: PLAN_ID });
-    outbox.reverse();
+    let mut outbox = flash_messages(steps)?;
     let (mut reader, mut out) = (FrameReader::<FRAME_BUF_LEN>::new(), [0u8; FRAME_BUF_LEN]);
     let mut next_arm_us = clock.now_us() + 300_000;
     let mut next_heartbeat_us = 0;
@@ -72,27 +66,8 @@ pub(crate) fn drive(
             }
         }
         for m in got {
-            match m {
-                ExecToHost::FlashRejected { reason, .. } => {
-                    return Err(io::Error::other(format!(
-                        "the bench plan was refused: {reason:?}"
-                    )));
-                }
-                ExecToHost::CommandRejected(CommandRejectReason::NotReady { .. }) => {
-                    next_arm_us = now + 50_000;
-                }
-                ExecToHost::CommandRejected(r) => {
-                    return Err(io::Error::other(format!("the executor refused a command: {r:?}")));
-                }
-                ExecToHost::Status(s) if s.state == ExecState::Armed => {
-                    outbox.insert(0, HostToExec::Start { plan_id: PLAN_ID });
-                }
-                ExecToHost::Trial(t)
-                    if t.kind != mesopush_protocol::host::TrialEventKind::Started =>
-                {
-                    return Ok(ExecToHost::Trial(t));
-                }
-                _ => {}
+            if let Some(end) = on_message(m, now, &mut next_arm_us, &mut outbox)? {
+                return Ok(end);
             }
         }
         if outbox.is_empty() && now >= next_arm_us {
@@ -112,4 +87,46 @@ pub(crate) fn drive(
         }
     }
     Err(io::Error::other("the bench trial did not end in time"))
+}
+
+/// Hello, then the bench plan's flash messages, in reverse order (popped from the back).
+fn flash_messages(steps: &[PlanStep]) -> io::Result<Vec<HostToExec>> {
+    let image: Vec<u8> = steps.iter().flat_map(|s| s.to_image_bytes()).collect();
+    let header = FlashHeader::for_image(PLAN_ID, &image)
+        .map_err(|e| io::Error::other(format!("bench plan: {e:?}")))?;
+    let mut outbox = vec![HostToExec::Hello(Hello::CURRENT), HostToExec::FlashBegin(header)];
+    outbox.extend(image_chunks(PLAN_ID, &image).map(HostToExec::FlashChunk));
+    outbox.push(HostToExec::FlashCommit { plan_id: PLAN_ID });
+    outbox.reverse();
+    Ok(outbox)
+}
+
+/// One message from the executor: a refusal is an error, `Armed` queues the start, a
+/// not-ready arm is retried in 50 ms; the trial's end event is returned.
+fn on_message(
+    m: ExecToHost,
+    now: u64,
+    next_arm_us: &mut u64,
+    outbox: &mut Vec<HostToExec>,
+) -> io::Result<Option<ExecToHost>> {
+    match m {
+        ExecToHost::FlashRejected { reason, .. } => {
+            Err(io::Error::other(format!("the bench plan was refused: {reason:?}")))
+        }
+        ExecToHost::CommandRejected(CommandRejectReason::NotReady { .. }) => {
+            *next_arm_us = now + 50_000;
+            Ok(None)
+        }
+        ExecToHost::CommandRejected(r) => {
+            Err(io::Error::other(format!("the executor refused a command: {r:?}")))
+        }
+        ExecToHost::Status(s) if s.state == ExecState::Armed => {
+            outbox.insert(0, HostToExec::Start { plan_id: PLAN_ID });
+            Ok(None)
+        }
+        ExecToHost::Trial(t) if t.kind != mesopush_protocol::host::TrialEventKind::Started => {
+            Ok(Some(ExecToHost::Trial(t)))
+        }
+        _ => Ok(None),
+    }
 }
