@@ -136,6 +136,7 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
         rounds: 1,
         accept_rate: 0.97,
         target_rate: 1.0,
+        initial: Skeleton::table2_like(),
     };
     let start = Plan::table2().peg_start;
     let run = |rs: &RobustSettings, seed| {
@@ -175,7 +176,7 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
 
 #[test]
 fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_the_incumbent() {
-    use mesopush_host::plan::{RobustSettings, World, design_robust};
+    use mesopush_host::plan::{RobustSettings, Skeleton, World, design_robust};
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
     let world = World {
         model: &model,
@@ -197,6 +198,7 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
         rounds: 1,
         accept_rate: 0.97,
         target_rate: 1.0,
+        initial: Skeleton::table2_like(),
     };
     let start = Plan::table2().peg_start;
     let run = |seed| {
@@ -224,6 +226,7 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
     assert_eq!(b.evaluations, 2 * a.evaluations, "seed 3, two rounds");
     assert_eq!(b.trials, 2 * a.trials, "seed 3, two rounds");
     assert_eq!(b.generations, 4, "seed 3, two rounds");
+    assert_eq!((a.rounds, b.rounds), (1, 2), "seed 3");
     assert!(
         b.validation_rate >= a.validation_rate,
         "{:?} < {:?}",

@@ -7,7 +7,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_host::geom::Pose;
 use mesopush_host::plan::pushes::pushing_moves;
 use mesopush_host::plan::{
-    MonteCarlo, Progress, RobustSettings, RrtSettings, Uncertainty, World, design_robust,
+    MonteCarlo, Progress, RobustSettings, RrtSettings, Skeleton, Uncertainty, World, design_robust,
     plan_is_feasible, plan_rrt,
 };
 use mesopush_host::plot::{PlanFigure, draw_plan};
@@ -44,6 +44,9 @@ pub(crate) struct PlanArgs {
     /// Pushing locations on the peg boundary.
     #[arg(long, default_value_t = 100)]
     locations: usize,
+    /// Most push drops the shortcut pass tries on the found branch (0: keep it as found).
+    #[arg(long, default_value_t = RrtSettings::default().shortcut_attempts)]
+    shortcut_attempts: usize,
     /// Wall-clock limit, s (the search stops and reports `found: false`).
     #[arg(long, default_value_t = 60.0)]
     time_limit_s: f64,
@@ -79,6 +82,10 @@ pub(crate) struct PlanArgs {
     /// With --robust: validation success rate that ends the search after a round.
     #[arg(long, default_value_t = RobustSettings::default().accept_rate)]
     accept_rate: f64,
+    /// With --robust: start the search at Table II's numbers instead of the best known design
+    /// (the cold start of the earlier rounds, docs/planning.md).
+    #[arg(long)]
+    from_table2: bool,
     /// With --robust: candidates per CEM generation.
     #[arg(long, default_value_t = RobustSettings::default().population)]
     population: usize,
@@ -129,6 +136,7 @@ pub(crate) fn run(args: &PlanArgs) -> Result<()> {
     let settings = RrtSettings {
         max_iterations: args.max_iterations,
         inputs_per_iteration: args.inputs.max(1),
+        shortcut_attempts: args.shortcut_attempts,
         pushes: mesopush_host::plan::pushes::PushSettings {
             n_locations: args.locations.max(4),
             ..Default::default()
@@ -158,7 +166,9 @@ pub(crate) fn run(args: &PlanArgs) -> Result<()> {
         }
     }
     let summary = json!({
-        "found": found, "pushes": result.pushes, "moves": moves, "travel_um": travel,
+        "found": found, "pushes": result.pushes,
+        "pushes_before_shortcut": result.pushes_before_shortcut,
+        "shortcut_attempts": result.shortcut_attempts, "moves": moves, "travel_um": travel,
         "iterations": result.iterations, "tree_size": result.tree_size,
         "simulated_pushes": result.simulated_pushes,
         "rejected_at_verification": result.rejected_at_verification,
@@ -187,6 +197,10 @@ fn print_text(s: &serde_json::Value) {
     println!(
         "iterations: {}, tree size: {}, pushes simulated: {}",
         s["iterations"], s["tree_size"], s["simulated_pushes"]
+    );
+    println!(
+        "pushes before shortcutting: {} ({} drops tried)",
+        s["pushes_before_shortcut"], s["shortcut_attempts"]
     );
     println!("planning time: {:.0} ms", s["planning_ms"].as_f64().unwrap_or(0.0));
     if let Some(p) = s["plan"].as_str() {
@@ -239,6 +253,7 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         rounds: args.rounds.max(1),
         accept_rate: args.accept_rate,
         elite: args.elite.clamp(1, args.population.max(2)),
+        initial: if args.from_table2 { Skeleton::table2_like() } else { Skeleton::best_known() },
         ..Default::default()
     };
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
@@ -300,6 +315,7 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         pushes,
         time_limited,
         check_seed,
+        validation_samples: settings.validation_samples,
     };
     print_robust(args, &out);
     Ok(())
@@ -314,6 +330,7 @@ struct RobustOutput<'a> {
     pushes: usize,
     time_limited: bool,
     check_seed: u64,
+    validation_samples: usize,
 }
 
 fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
@@ -325,7 +342,8 @@ fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
         "validation_rate": r.validation_rate, "replays": r.trials,
         "time_limited": o.time_limited,
         "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
-        "iterations": r.evaluations, "generations": r.generations,
+        "iterations": r.evaluations, "generations": r.generations, "rounds": r.rounds,
+        "validation_samples": o.validation_samples,
         "planning_ms": planning_ms, "seed": args.seed, "plan": &args.out,
         "parameters": mesopush_host::plan::skeleton::NAMES.iter().zip(r.skeleton.params)
             .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
@@ -348,11 +366,13 @@ fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
             100.0 * r.training_rate
         );
         println!(
-            "on the validation worlds {:.1} %; {} candidates in {} generations ({} replays), \
-             {planning_ms:.0} ms{}",
+            "on the {} validation worlds {:.1} %; {} candidates in {} generations of {} \
+             rounds ({} replays), {planning_ms:.0} ms{}",
+            o.validation_samples,
             100.0 * r.validation_rate.unwrap_or(f64::NAN),
             r.evaluations,
             r.generations,
+            r.rounds,
             r.trials,
             if o.time_limited { " (cut by --time-limit-s)" } else { "" }
         );
