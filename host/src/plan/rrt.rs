@@ -39,6 +39,10 @@ pub struct RrtSettings {
     /// Most push drops the shortcut pass tries on the found branch (`plan::shortcut`);
     /// 0 keeps the branch as found. Default 60.
     pub shortcut_attempts: usize,
+    /// Orientation window of the goal connection during shortcutting, degrees (wider than
+    /// `connect_theta_deg`: the channel's chamfers square a peg that comes in turned, and the
+    /// pass keeps only plans whose whole replay inserts). Default 20.
+    pub shortcut_connect_theta_deg: f64,
 }
 
 impl Default for RrtSettings {
@@ -51,6 +55,7 @@ impl Default for RrtSettings {
             speed_um_s: 140.0,
             connect_theta_deg: 8.0,
             shortcut_attempts: 60,
+            shortcut_connect_theta_deg: 20.0,
         }
     }
 }
@@ -173,7 +178,7 @@ fn finish(
 ) -> Result<RrtResult, Error> {
     out.tree_size = tree.nodes.len();
     out.pushes_before_shortcut = tree.branch(leaf).len() - 1;
-    let short = shortcut(steer, tree, leaf, s.shortcut_attempts, s.speed_um_s)?;
+    let short = shortcut(steer, tree, leaf, s)?;
     out.shortcut_attempts = short.attempts;
     out.pushes = short.tree.branch(short.leaf).len() - 1;
     let name = format!("RRT plan ({} pushes, {} iterations)", out.pushes, out.iterations);

@@ -3,17 +3,22 @@
 //! shortened greedily and deterministically (no random choice, so the plan stays fixed by the
 //! seed):
 //!
+//! - first connect earlier nodes of the branch straight to the goal (the earliest that works);
 //! - drop one push of the branch (then, when no single drop helps, two consecutive ones), keep
 //!   the pushes before it as they are and replay the ones after it, each re-aimed at the
 //!   peg's new pose from the same boundary location, along the same axis and for the same
 //!   length (the goal connection's pushes too);
 //! - after every replayed push, also try the direct goal connection (centre on the channel,
 //!   push in) aimed at the new pose, which may end the plan early;
+//! - the goal connection here accepts poses within
+//!   [`RrtSettings::shortcut_connect_theta_deg`] of the channel's axis, wider than the
+//!   search's window (the chamfers square a turned peg; every kept plan is verified);
 //! - keep the change only when it has fewer pushes and the **whole plan, replayed from the
 //!   start**, inserts the peg and keeps the probe out of the walls ([`Steer::verify`], the
 //!   same check the search uses); start again from the shorter branch until no single drop
 //!   helps or the attempt cap is reached.
 
+use super::rrt::RrtSettings;
 use super::steer::Steer;
 use super::tree::Tree;
 use crate::Error;
@@ -61,16 +66,30 @@ pub struct Shortcut {
 }
 
 /// Shortens the branch from the root of `tree` to its inserted, verified `leaf`, trying at
-/// most `max_attempts` drops; never returns more pushes than the branch had.
+/// most [`RrtSettings::shortcut_attempts`] changes; never returns more pushes than the branch
+/// had.
 pub fn shortcut(
     steer: &mut Steer<'_>,
     tree: &Tree,
     leaf: usize,
-    max_attempts: usize,
-    speed_um_s: f64,
+    settings: &RrtSettings,
 ) -> Result<Shortcut, Error> {
+    let (max_attempts, speed_um_s) = (settings.shortcut_attempts, settings.speed_um_s);
+    let theta = settings.shortcut_connect_theta_deg;
     let (mut best, mut best_leaf) = branch_tree(tree, leaf);
     let mut attempts = 0;
+    // Earlier nodes straight to the goal connection, earliest first (the fewest pushes).
+    for i in 0..best_leaf.saturating_sub(1) {
+        if attempts >= max_attempts {
+            break;
+        }
+        attempts += 1;
+        let (mut t, n) = branch_tree(&best, best_leaf);
+        if let Some(l) = connect_verified(steer, &mut t, i, n, theta, speed_um_s)? {
+            (best, best_leaf) = branch_tree(&t, l);
+            break;
+        }
+    }
     'shorter: loop {
         let chain = branch_pushes(&best, best_leaf);
         let n = chain.len();
@@ -81,7 +100,7 @@ pub fn shortcut(
             }
             attempts += 1;
             let (mut t, _) = branch_tree(&best, best_leaf);
-            if let Some(l) = realise(steer, &mut t, k, &chain[k + w..], n, speed_um_s)? {
+            if let Some(l) = realise(steer, &mut t, k, &chain[k + w..], n, theta, speed_um_s)? {
                 (best, best_leaf) = branch_tree(&t, l);
                 continue 'shorter;
             }
@@ -91,14 +110,16 @@ pub fn shortcut(
     Ok(Shortcut { tree: best, leaf: best_leaf, attempts })
 }
 
-/// Replays `rest` from node `from` of `tree`, trying the goal connection after each push;
-/// returns the first inserted leaf with fewer than `limit` pushes whose whole plan verifies.
+/// Replays `rest` from node `from` of `tree`, trying the goal connection (window `theta_deg`)
+/// after each push; returns the first inserted leaf with fewer than `limit` pushes whose whole
+/// plan verifies.
 fn realise(
     steer: &mut Steer<'_>,
     tree: &mut Tree,
     from: usize,
     rest: &[Push],
     limit: usize,
+    theta_deg: f64,
     speed_um_s: f64,
 ) -> Result<Option<usize>, Error> {
     let mut at = from;
@@ -116,15 +137,30 @@ fn realise(
         if inserted {
             return verified(steer, tree, at, speed_um_s);
         }
-        let (leaf, inserted, _) = steer.connect(tree, at)?;
-        if let (Some(leaf), true) = (leaf, inserted)
-            && tree.nodes[leaf].depth < limit
-            && let Some(l) = verified(steer, tree, leaf, speed_um_s)?
-        {
+        if let Some(l) = connect_verified(steer, tree, at, limit, theta_deg, speed_um_s)? {
             return Ok(Some(l));
         }
     }
     Ok(None)
+}
+
+/// The goal connection from node `at` (window `theta_deg`) when it inserts with fewer than
+/// `limit` pushes and the whole plan verifies.
+fn connect_verified(
+    steer: &mut Steer<'_>,
+    tree: &mut Tree,
+    at: usize,
+    limit: usize,
+    theta_deg: f64,
+    speed_um_s: f64,
+) -> Result<Option<usize>, Error> {
+    let (leaf, inserted, _) = steer.connect_within(tree, at, theta_deg)?;
+    match (leaf, inserted) {
+        (Some(leaf), true) if tree.nodes[leaf].depth < limit => {
+            verified(steer, tree, leaf, speed_um_s)
+        }
+        _ => Ok(None),
+    }
 }
 
 /// `leaf` when the plan to it verifies.

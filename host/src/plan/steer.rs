@@ -200,9 +200,20 @@ impl<'a> Steer<'a> {
         tree: &mut Tree,
         id: usize,
     ) -> Result<(Option<usize>, bool, usize), Error> {
+        self.connect_within(tree, id, self.settings.connect_theta_deg)
+    }
+
+    /// [`Steer::connect`] from poses within `theta_deg` of the channel's axis (the shortcut
+    /// pass tries a wider window than the search: it verifies every plan it keeps).
+    pub fn connect_within(
+        &mut self,
+        tree: &mut Tree,
+        id: usize,
+        theta_deg: f64,
+    ) -> Result<(Option<usize>, bool, usize), Error> {
         let pose = tree.nodes[id].pose;
-        let aligned = angle_diff_mod_pi(pose.theta_rad, self.goal.theta_rad).abs()
-            <= self.settings.connect_theta_deg.to_radians();
+        let aligned =
+            angle_diff_mod_pi(pose.theta_rad, self.goal.theta_rad).abs() <= theta_deg.to_radians();
         let mouth_x = self.sim.fixture().goal.bounds().1.x;
         if !aligned || pose.x_um <= mouth_x {
             return Ok((None, false, 0));

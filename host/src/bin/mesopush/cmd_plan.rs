@@ -47,6 +47,9 @@ pub(crate) struct PlanArgs {
     /// Most push drops the shortcut pass tries on the found branch (0: keep it as found).
     #[arg(long, default_value_t = RrtSettings::default().shortcut_attempts)]
     shortcut_attempts: usize,
+    /// Orientation window of the goal connection while shortcutting, degrees.
+    #[arg(long, default_value_t = RrtSettings::default().shortcut_connect_theta_deg)]
+    shortcut_connect_deg: f64,
     /// Wall-clock limit, s (the search stops and reports `found: false`).
     #[arg(long, default_value_t = 60.0)]
     time_limit_s: f64,
@@ -137,6 +140,7 @@ pub(crate) fn run(args: &PlanArgs) -> Result<()> {
         max_iterations: args.max_iterations,
         inputs_per_iteration: args.inputs.max(1),
         shortcut_attempts: args.shortcut_attempts,
+        shortcut_connect_theta_deg: args.shortcut_connect_deg,
         pushes: mesopush_host::plan::pushes::PushSettings {
             n_locations: args.locations.max(4),
             ..Default::default()
