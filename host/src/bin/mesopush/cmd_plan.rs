@@ -283,8 +283,11 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         bar.set_message(format!("best {:.1} %", 100.0 * best));
         let gen_s = t0.elapsed().as_secs_f64() / g as f64;
         // Validation runs at the fine step: two to three times the cost per replay (a
-        // 2.0 × 1.2 reserve let a search at load 6 finish in 64 s).
-        let next = gen_s * (1.0 + 3.0 * val / per_gen);
+        // 2.0 × 1.2 reserve let a search at load 6 finish in 64 s). At the end of a round
+        // its own validation runs before the next round's first generation: reserve both.
+        let val_s = gen_s * 3.0 * val / per_gen;
+        let round_end = g % settings.generations.max(1) == 0;
+        let next = gen_s + val_s * if round_end { 2.0 } else { 1.0 };
         let go_on = t0.elapsed().as_secs_f64() + 1.2 * next < limit;
         time_limited |= !go_on && g < settings.generations * settings.rounds;
         go_on
