@@ -260,3 +260,21 @@ fn support_set_files_load_as_toml_or_json_and_name_a_bad_candidate() {
     let e = SupportSet::load(&bad, &model).unwrap_err().to_string();
     assert!(e.contains("support 2") && e.contains("bad.toml"), "{e}");
 }
+
+#[test]
+fn the_search_starts_at_the_shipped_robust_plan() {
+    use mesopush_host::plan::{RobustSettings, Skeleton};
+    let shipped = Plan::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../plans/robust.toml"
+    )))
+    .unwrap();
+    let start = Plan::table2().peg_start;
+    let best = Skeleton::best_known().to_plan("", start);
+    assert_eq!(RobustSettings::default().initial, Skeleton::best_known());
+    assert_eq!(best.probe_start_um, shipped.probe_start_um);
+    assert_eq!(best.moves_um.len(), shipped.moves_um.len());
+    for (a, b) in best.moves_um.iter().zip(&shipped.moves_um) {
+        assert!((a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6, "{a:?} vs {b:?}");
+    }
+}
