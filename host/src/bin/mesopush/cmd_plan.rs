@@ -245,21 +245,7 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     if let Some(p) = args.start {
         (start.x_um, start.y_um, start.theta_deg) = (p.x_um, p.y_um, p.theta_rad.to_degrees());
     }
-    let settings = RobustSettings {
-        generations: args.generations.max(1),
-        samples: args.train_samples.max(2),
-        validation_samples: args.validation_samples,
-        train_step_um: args.train_step_um,
-        resample: !args.common_worlds,
-        train_scale: args.train_scale,
-        finalists: args.finalists.max(1),
-        population: args.population.max(2),
-        rounds: args.rounds.max(1),
-        accept_rate: args.accept_rate,
-        elite: args.elite.clamp(1, args.population.max(2)),
-        initial: if args.from_table2 { Skeleton::table2_like() } else { Skeleton::best_known() },
-        ..Default::default()
-    };
+    let settings = robust_settings(args);
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
     let sim_settings = sim.settings().clone();
     let world = World {
@@ -274,21 +260,10 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     let t0 = Instant::now();
     let limit = args.time_limit_s;
     let mut time_limited = false;
-    // Stop before the next generation would cross the limit, keeping time for validation
-    // (about as many replays as a generation of 16 candidates on 96 worlds × 3/4 each).
-    let per_gen = (settings.population * settings.samples * 3 / 4).max(1) as f64;
-    let val = (settings.finalists * settings.validation_samples) as f64;
     let mut on_progress = |g: usize, best: f64| {
         bar.set_position(g as u64);
         bar.set_message(format!("best {:.1} %", 100.0 * best));
-        let gen_s = t0.elapsed().as_secs_f64() / g as f64;
-        // Validation runs at the fine step: two to three times the cost per replay (a
-        // 2.0 × 1.2 reserve let a search at load 6 finish in 64 s). At the end of a round
-        // its own validation runs before the next round's first generation: reserve both.
-        let val_s = gen_s * 3.0 * val / per_gen;
-        let round_end = g % settings.generations.max(1) == 0;
-        let next = gen_s + val_s * if round_end { 2.0 } else { 1.0 };
-        let go_on = t0.elapsed().as_secs_f64() + 1.2 * next < limit;
+        let go_on = fits_another_generation(&settings, g, t0.elapsed().as_secs_f64(), limit);
         time_limited |= !go_on && g < settings.generations * settings.rounds;
         go_on
     };
@@ -327,6 +302,45 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     };
     print_robust(args, &out);
     Ok(())
+}
+
+/// The optimiser's settings from the flags.
+fn robust_settings(args: &PlanArgs) -> RobustSettings {
+    RobustSettings {
+        generations: args.generations.max(1),
+        samples: args.train_samples.max(2),
+        validation_samples: args.validation_samples,
+        train_step_um: args.train_step_um,
+        resample: !args.common_worlds,
+        train_scale: args.train_scale,
+        finalists: args.finalists.max(1),
+        population: args.population.max(2),
+        rounds: args.rounds.max(1),
+        accept_rate: args.accept_rate,
+        elite: args.elite.clamp(1, args.population.max(2)),
+        initial: if args.from_table2 { Skeleton::table2_like() } else { Skeleton::best_known() },
+        ..Default::default()
+    }
+}
+
+/// Whether generation `g + 1` and the validation still fit in `limit_s` after `elapsed_s`.
+fn fits_another_generation(
+    settings: &RobustSettings,
+    g: usize,
+    elapsed_s: f64,
+    limit_s: f64,
+) -> bool {
+    // A generation is about 16 candidates on 96 worlds × 3/4 each (racing).
+    let per_gen = (settings.population * settings.samples * 3 / 4).max(1) as f64;
+    let val = (settings.finalists * settings.validation_samples) as f64;
+    let gen_s = elapsed_s / g.max(1) as f64;
+    // Validation runs at the fine step: two to three times the cost per replay (a 2.0 × 1.2
+    // reserve let a search at load 6 finish in 64 s). At the end of a round its own
+    // validation runs before the next round's first generation: reserve both.
+    let val_s = gen_s * 3.0 * val / per_gen;
+    let round_end = g % settings.generations.max(1) == 0;
+    let next = gen_s + val_s * if round_end { 2.0 } else { 1.0 };
+    elapsed_s + 1.2 * next < limit_s
 }
 
 struct RobustOutput<'a> {
