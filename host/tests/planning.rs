@@ -15,8 +15,11 @@ fn sim() -> Simulator {
 const SEED: u64 = 2;
 
 fn plan(seed: u64, max_iterations: usize) -> (mesopush_host::plan::RrtResult, Simulator) {
+    plan_with(seed, RrtSettings { max_iterations, ..Default::default() })
+}
+
+fn plan_with(seed: u64, settings: RrtSettings) -> (mesopush_host::plan::RrtResult, Simulator) {
     let mut s = sim();
-    let settings = RrtSettings { max_iterations, ..Default::default() };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let start = Plan::table2().peg_start_pose();
     let r = plan_rrt(&mut s, start, &settings, &mut rng, &mut |_| true).unwrap();
@@ -54,6 +57,29 @@ fn same_seed_same_plan() {
 }
 
 #[test]
+fn shortcutting_never_adds_pushes_and_the_shortcut_plan_still_inserts() {
+    let (mut before, mut after) = (0, 0);
+    for seed in [SEED, 4, 6] {
+        let settings = RrtSettings { max_iterations: 2000, ..Default::default() };
+        let raw = RrtSettings { shortcut_attempts: 0, ..settings.clone() };
+        let (r0, _) = plan_with(seed, raw);
+        let (r, mut s) = plan_with(seed, settings);
+        let plan = r.plan.unwrap_or_else(|| panic!("seed {seed}: no plan"));
+        // The search is the same; only the found branch is shortened.
+        assert_eq!(r0.pushes, r0.pushes_before_shortcut, "seed {seed}");
+        assert_eq!(r.pushes_before_shortcut, r0.pushes, "seed {seed}");
+        assert!(r.pushes <= r.pushes_before_shortcut, "seed {seed}: {} pushes", r.pushes);
+        assert!(r.shortcut_attempts > 0, "seed {seed}");
+        let rep = replay(&mut s, &plan, None).unwrap();
+        assert!(rep.inserted && rep.events.is_empty(), "seed {seed}: {:?}", rep.final_pose);
+        assert!(plan_is_feasible(&mut s, &plan).unwrap(), "seed {seed}");
+        (before, after) = (before + r.pushes_before_shortcut, after + r.pushes);
+    }
+    // A pass that never shortens anything would be dead weight.
+    assert!(after < before, "{after} pushes after shortcutting, {before} before");
+}
+
+#[test]
 fn no_iterations_no_plan_and_a_table2_cut_short_is_not_feasible() {
     let (r, mut s) = plan(SEED, 0);
     assert!(r.plan.is_none() && r.iterations == 0 && r.pushes == 0);
@@ -75,7 +101,7 @@ fn plan_cli_prints_the_json_summary_and_writes_a_loadable_plan() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["found"], true, "{v}");
-    for k in ["pushes", "iterations", "planning_ms", "tree_size"] {
+    for k in ["pushes", "pushes_before_shortcut", "iterations", "planning_ms", "tree_size"] {
         assert!(v[k].is_number(), "{k} missing: {v}");
     }
     Plan::load(&out).unwrap();
@@ -88,7 +114,7 @@ fn robust_plan_cli_reports_the_fresh_check_and_the_design_figures() {
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
         .args(["plan", "--robust", "--seed", "3", "--json", "--generations", "1"])
         .args(["--train-samples", "4", "--validation-samples", "4", "--check-samples", "6"])
-        .args(["--check-seed", "99", "--out"])
+        .args(["--check-seed", "99", "--rounds", "2", "--accept-rate", "1.01", "--out"])
         .arg(&out)
         .output()
         .unwrap();
@@ -100,6 +126,7 @@ fn robust_plan_cli_reports_the_fresh_check_and_the_design_figures() {
     {
         assert!(v[k].is_number(), "{k} missing: {v}");
     }
-    assert_eq!(v["generations"], 1, "{v}");
+    assert_eq!((v["generations"].as_u64(), v["rounds"].as_u64()), (Some(2), Some(2)), "{v}");
+    assert_eq!(v["validation_samples"], 4, "{v}");
     Plan::load(&out).unwrap().validate().unwrap();
 }

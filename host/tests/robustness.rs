@@ -136,6 +136,7 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
         rounds: 1,
         accept_rate: 0.97,
         target_rate: 1.0,
+        initial: Skeleton::table2_like(),
     };
     let start = Plan::table2().peg_start;
     let run = |rs: &RobustSettings, seed| {
@@ -175,7 +176,7 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
 
 #[test]
 fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_the_incumbent() {
-    use mesopush_host::plan::{RobustSettings, World, design_robust};
+    use mesopush_host::plan::{RobustSettings, Skeleton, World, design_robust};
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
     let world = World {
         model: &model,
@@ -197,6 +198,7 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
         rounds: 1,
         accept_rate: 0.97,
         target_rate: 1.0,
+        initial: Skeleton::table2_like(),
     };
     let start = Plan::table2().peg_start;
     let run = |seed| {
@@ -224,6 +226,7 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
     assert_eq!(b.evaluations, 2 * a.evaluations, "seed 3, two rounds");
     assert_eq!(b.trials, 2 * a.trials, "seed 3, two rounds");
     assert_eq!(b.generations, 4, "seed 3, two rounds");
+    assert_eq!((a.rounds, b.rounds), (1, 2), "seed 3");
     assert!(
         b.validation_rate >= a.validation_rate,
         "{:?} < {:?}",
@@ -256,4 +259,22 @@ fn support_set_files_load_as_toml_or_json_and_name_a_bad_candidate() {
     std::fs::write(&bad, text).unwrap();
     let e = SupportSet::load(&bad, &model).unwrap_err().to_string();
     assert!(e.contains("support 2") && e.contains("bad.toml"), "{e}");
+}
+
+#[test]
+fn the_search_starts_at_the_shipped_robust_plan() {
+    use mesopush_host::plan::{RobustSettings, Skeleton};
+    let shipped = Plan::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../plans/robust.toml"
+    )))
+    .unwrap();
+    let start = Plan::table2().peg_start;
+    let best = Skeleton::best_known().to_plan("", start);
+    assert_eq!(RobustSettings::default().initial, Skeleton::best_known());
+    assert_eq!(best.probe_start_um, shipped.probe_start_um);
+    assert_eq!(best.moves_um.len(), shipped.moves_um.len());
+    for (a, b) in best.moves_um.iter().zip(&shipped.moves_um) {
+        assert!((a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6, "{a:?} vs {b:?}");
+    }
 }

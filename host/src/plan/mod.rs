@@ -10,6 +10,7 @@ pub mod clearance;
 pub mod pushes;
 pub mod route;
 pub mod rrt;
+pub mod shortcut;
 pub mod steer;
 pub mod tree;
 

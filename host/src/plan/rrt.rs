@@ -11,6 +11,7 @@
 
 use super::clearance::first_wall_violation;
 use super::pushes::{PushSettings, boundary_locations};
+use super::shortcut::shortcut;
 use super::steer::{Extension, Steer};
 use super::tree::{Tree, pose_distance};
 use crate::Error;
@@ -35,6 +36,13 @@ pub struct RrtSettings {
     /// Goal pose tolerance for trying the direct connection: |Δθ| (mod π), degrees.
     /// Default 8.
     pub connect_theta_deg: f64,
+    /// Most push drops the shortcut pass tries on the found branch (`plan::shortcut`);
+    /// 0 keeps the branch as found. Default 60.
+    pub shortcut_attempts: usize,
+    /// Orientation window of the goal connection during shortcutting, degrees (wider than
+    /// `connect_theta_deg`: the channel's chamfers square a peg that comes in turned, and the
+    /// pass keeps only plans whose whole replay inserts). Default 20.
+    pub shortcut_connect_theta_deg: f64,
 }
 
 impl Default for RrtSettings {
@@ -46,6 +54,8 @@ impl Default for RrtSettings {
             pushes: PushSettings::default(),
             speed_um_s: 140.0,
             connect_theta_deg: 8.0,
+            shortcut_attempts: 60,
+            shortcut_connect_theta_deg: 20.0,
         }
     }
 }
@@ -59,8 +69,12 @@ pub struct RrtResult {
     pub iterations: usize,
     /// Nodes in the tree.
     pub tree_size: usize,
-    /// Pushes (probe contacts) in the plan; 0 when none was found.
+    /// Pushes (tree edges) in the plan after shortcutting; 0 when none was found.
     pub pushes: usize,
+    /// Pushes of the branch the search found, before shortcutting; 0 when none was found.
+    pub pushes_before_shortcut: usize,
+    /// Push drops the shortcut pass tried.
+    pub shortcut_attempts: usize,
     /// Push simulations run.
     pub simulated_pushes: usize,
     /// Candidate plans that reached the goal in the tree but failed the whole-plan replay.
@@ -92,12 +106,14 @@ pub fn plan_rrt(
         iterations: 0,
         tree_size: 1,
         pushes: 0,
+        pushes_before_shortcut: 0,
+        shortcut_attempts: 0,
         simulated_pushes: 0,
         rejected_at_verification: 0,
     };
     let goal = steer.goal();
     if let Some(leaf) = try_connect(&mut steer, &mut tree, 0, settings, &mut out)? {
-        return finish(&tree, leaf, settings, out);
+        return finish(&mut steer, &tree, leaf, settings, out);
     }
     for it in 0..settings.max_iterations {
         out.iterations = it + 1;
@@ -117,7 +133,7 @@ pub fn plan_rrt(
         if let Some(ext) = best {
             let id = steer.add(&mut tree, near, ext);
             if let Some(leaf) = try_connect(&mut steer, &mut tree, id, settings, &mut out)? {
-                return finish(&tree, leaf, settings, out);
+                return finish(&mut steer, &tree, leaf, settings, out);
             }
         }
         out.tree_size = tree.nodes.len();
@@ -152,16 +168,21 @@ fn try_connect(
     Ok(None)
 }
 
+/// The plan to the found `leaf`, shortcut.
 fn finish(
+    steer: &mut Steer<'_>,
     tree: &Tree,
     leaf: usize,
     s: &RrtSettings,
     mut out: RrtResult,
 ) -> Result<RrtResult, Error> {
     out.tree_size = tree.nodes.len();
-    out.pushes = tree.branch(leaf).len() - 1;
+    out.pushes_before_shortcut = tree.branch(leaf).len() - 1;
+    let short = shortcut(steer, tree, leaf, s)?;
+    out.shortcut_attempts = short.attempts;
+    out.pushes = short.tree.branch(short.leaf).len() - 1;
     let name = format!("RRT plan ({} pushes, {} iterations)", out.pushes, out.iterations);
-    out.plan = Some(tree.plan_to(leaf, &name, s.speed_um_s));
+    out.plan = Some(short.tree.plan_to(short.leaf, &name, s.speed_um_s));
     Ok(out)
 }
 

@@ -58,6 +58,24 @@ impl Skeleton {
         Self { params: [640.0, 1550.0, 2000.0, 990.0, 1415.0, 550.0] }
     }
 
+    /// The best design found for Table II's start on the paper's fixture: the shipped
+    /// `plans/robust.toml` (`plan --robust --seed 2` of the cold-started search, 96.2 % and
+    /// 95.9 % on 1000 fresh draws of seeds 12345 and 777). The robust search starts here by
+    /// default, so a search cut short by the time limit refines a good design instead of
+    /// Table II's numbers (docs/planning.md).
+    pub fn best_known() -> Self {
+        Self {
+            params: [
+                757.064_694_228_459_5,
+                1_242.467_667_261_058_5,
+                2_734.601_395_806_952_5,
+                1_187.143_306_008_835,
+                1_357.953_901_526_290_3,
+                505.134_427_315_569_6,
+            ],
+        }
+    }
+
     /// Parameters clamped into [`BOUNDS`].
     pub fn clamped(mut self) -> Self {
         for (p, (lo, hi)) in self.params.iter_mut().zip(BOUNDS) {

@@ -114,6 +114,8 @@ impl<'a> Steer<'a> {
             probe_from_um: from,
             probe_um: Some(o.probe_um),
             direction: ps.direction,
+            location: ps.location,
+            length_um,
             depth: node.depth + 1,
         };
         Ok(Some(Extension { node: new, inserted: o.inserted }))
@@ -139,6 +141,31 @@ impl<'a> Steer<'a> {
             return self.extend(node, &ps, length);
         }
         Ok(None)
+    }
+
+    /// The push from `location` along `direction` of `length_um` from `node`, re-aimed at
+    /// `node`'s pose (what the shortcut pass replays); `None` when it is unusable there.
+    pub fn push_from(
+        &mut self,
+        node: &Node,
+        location: usize,
+        direction: usize,
+        length_um: f64,
+    ) -> Result<Option<Extension>, Error> {
+        let peg = self.part.transformed(&node.pose);
+        let obstacles = self.obstacles(Some(&peg));
+        let ps = push_start(
+            self.locations,
+            location,
+            direction,
+            &node.pose,
+            &obstacles,
+            &self.settings.pushes,
+        );
+        match ps {
+            Some(ps) => self.extend(node, &ps, length_um),
+            None => Ok(None),
+        }
     }
 
     /// Adds `ext` under `parent`; returns its index.
@@ -173,9 +200,20 @@ impl<'a> Steer<'a> {
         tree: &mut Tree,
         id: usize,
     ) -> Result<(Option<usize>, bool, usize), Error> {
+        self.connect_within(tree, id, self.settings.connect_theta_deg)
+    }
+
+    /// [`Steer::connect`] from poses within `theta_deg` of the channel's axis (the shortcut
+    /// pass tries a wider window than the search: it verifies every plan it keeps).
+    pub fn connect_within(
+        &mut self,
+        tree: &mut Tree,
+        id: usize,
+        theta_deg: f64,
+    ) -> Result<(Option<usize>, bool, usize), Error> {
         let pose = tree.nodes[id].pose;
-        let aligned = angle_diff_mod_pi(pose.theta_rad, self.goal.theta_rad).abs()
-            <= self.settings.connect_theta_deg.to_radians();
+        let aligned =
+            angle_diff_mod_pi(pose.theta_rad, self.goal.theta_rad).abs() <= theta_deg.to_radians();
         let mouth_x = self.sim.fixture().goal.bounds().1.x;
         if !aligned || pose.x_um <= mouth_x {
             return Ok((None, false, 0));

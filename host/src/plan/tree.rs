@@ -38,6 +38,10 @@ pub struct Node {
     pub probe_um: Option<Vec2>,
     /// Direction of the push that made this node (index into `DIRECTIONS`).
     pub direction: usize,
+    /// Boundary location of that push (index into the planner's locations).
+    pub location: usize,
+    /// Probe travel of that push after touching the peg, µm (0 at the root).
+    pub length_um: f64,
     /// Pushes from the root.
     pub depth: usize,
 }
@@ -59,6 +63,8 @@ impl Tree {
             probe_from_um: Vec2::zeros(),
             probe_um: None,
             direction: 0,
+            location: 0,
+            length_um: 0.0,
             depth: 0,
         };
         Self { nodes: vec![root] }

@@ -7,7 +7,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_host::geom::Pose;
 use mesopush_host::plan::pushes::pushing_moves;
 use mesopush_host::plan::{
-    MonteCarlo, Progress, RobustSettings, RrtSettings, Uncertainty, World, design_robust,
+    MonteCarlo, Progress, RobustSettings, RrtSettings, Skeleton, Uncertainty, World, design_robust,
     plan_is_feasible, plan_rrt,
 };
 use mesopush_host::plot::{PlanFigure, draw_plan};
@@ -44,6 +44,12 @@ pub(crate) struct PlanArgs {
     /// Pushing locations on the peg boundary.
     #[arg(long, default_value_t = 100)]
     locations: usize,
+    /// Most push drops the shortcut pass tries on the found branch (0: keep it as found).
+    #[arg(long, default_value_t = RrtSettings::default().shortcut_attempts)]
+    shortcut_attempts: usize,
+    /// Orientation window of the goal connection while shortcutting, degrees.
+    #[arg(long, default_value_t = RrtSettings::default().shortcut_connect_theta_deg)]
+    shortcut_connect_deg: f64,
     /// Wall-clock limit, s (the search stops and reports `found: false`).
     #[arg(long, default_value_t = 60.0)]
     time_limit_s: f64,
@@ -79,6 +85,10 @@ pub(crate) struct PlanArgs {
     /// With --robust: validation success rate that ends the search after a round.
     #[arg(long, default_value_t = RobustSettings::default().accept_rate)]
     accept_rate: f64,
+    /// With --robust: start the search at Table II's numbers instead of the best known design
+    /// (the cold start of the earlier rounds, docs/planning.md).
+    #[arg(long)]
+    from_table2: bool,
     /// With --robust: candidates per CEM generation.
     #[arg(long, default_value_t = RobustSettings::default().population)]
     population: usize,
@@ -129,6 +139,8 @@ pub(crate) fn run(args: &PlanArgs) -> Result<()> {
     let settings = RrtSettings {
         max_iterations: args.max_iterations,
         inputs_per_iteration: args.inputs.max(1),
+        shortcut_attempts: args.shortcut_attempts,
+        shortcut_connect_theta_deg: args.shortcut_connect_deg,
         pushes: mesopush_host::plan::pushes::PushSettings {
             n_locations: args.locations.max(4),
             ..Default::default()
@@ -158,7 +170,9 @@ pub(crate) fn run(args: &PlanArgs) -> Result<()> {
         }
     }
     let summary = json!({
-        "found": found, "pushes": result.pushes, "moves": moves, "travel_um": travel,
+        "found": found, "pushes": result.pushes,
+        "pushes_before_shortcut": result.pushes_before_shortcut,
+        "shortcut_attempts": result.shortcut_attempts, "moves": moves, "travel_um": travel,
         "iterations": result.iterations, "tree_size": result.tree_size,
         "simulated_pushes": result.simulated_pushes,
         "rejected_at_verification": result.rejected_at_verification,
@@ -187,6 +201,10 @@ fn print_text(s: &serde_json::Value) {
     println!(
         "iterations: {}, tree size: {}, pushes simulated: {}",
         s["iterations"], s["tree_size"], s["simulated_pushes"]
+    );
+    println!(
+        "pushes before shortcutting: {} ({} drops tried)",
+        s["pushes_before_shortcut"], s["shortcut_attempts"]
     );
     println!("planning time: {:.0} ms", s["planning_ms"].as_f64().unwrap_or(0.0));
     if let Some(p) = s["plan"].as_str() {
@@ -227,20 +245,7 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     if let Some(p) = args.start {
         (start.x_um, start.y_um, start.theta_deg) = (p.x_um, p.y_um, p.theta_rad.to_degrees());
     }
-    let settings = RobustSettings {
-        generations: args.generations.max(1),
-        samples: args.train_samples.max(2),
-        validation_samples: args.validation_samples,
-        train_step_um: args.train_step_um,
-        resample: !args.common_worlds,
-        train_scale: args.train_scale,
-        finalists: args.finalists.max(1),
-        population: args.population.max(2),
-        rounds: args.rounds.max(1),
-        accept_rate: args.accept_rate,
-        elite: args.elite.clamp(1, args.population.max(2)),
-        ..Default::default()
-    };
+    let settings = robust_settings(args);
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
     let sim_settings = sim.settings().clone();
     let world = World {
@@ -255,17 +260,10 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     let t0 = Instant::now();
     let limit = args.time_limit_s;
     let mut time_limited = false;
-    // Stop before the next generation would cross the limit, keeping time for validation
-    // (about as many replays as a generation of 16 candidates on 96 worlds × 3/4 each).
-    let per_gen = (settings.population * settings.samples * 3 / 4).max(1) as f64;
-    let val = (settings.finalists * settings.validation_samples) as f64;
     let mut on_progress = |g: usize, best: f64| {
         bar.set_position(g as u64);
         bar.set_message(format!("best {:.1} %", 100.0 * best));
-        let gen_s = t0.elapsed().as_secs_f64() / g as f64;
-        // Validation runs at the fine step: about twice the cost per replay.
-        let next = gen_s * (1.0 + 2.0 * val / per_gen);
-        let go_on = t0.elapsed().as_secs_f64() + 1.2 * next < limit;
+        let go_on = fits_another_generation(&settings, g, t0.elapsed().as_secs_f64(), limit);
         time_limited |= !go_on && g < settings.generations * settings.rounds;
         go_on
     };
@@ -300,9 +298,49 @@ fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
         pushes,
         time_limited,
         check_seed,
+        validation_samples: settings.validation_samples,
     };
     print_robust(args, &out);
     Ok(())
+}
+
+/// The optimiser's settings from the flags.
+fn robust_settings(args: &PlanArgs) -> RobustSettings {
+    RobustSettings {
+        generations: args.generations.max(1),
+        samples: args.train_samples.max(2),
+        validation_samples: args.validation_samples,
+        train_step_um: args.train_step_um,
+        resample: !args.common_worlds,
+        train_scale: args.train_scale,
+        finalists: args.finalists.max(1),
+        population: args.population.max(2),
+        rounds: args.rounds.max(1),
+        accept_rate: args.accept_rate,
+        elite: args.elite.clamp(1, args.population.max(2)),
+        initial: if args.from_table2 { Skeleton::table2_like() } else { Skeleton::best_known() },
+        ..Default::default()
+    }
+}
+
+/// Whether generation `g + 1` and the validation still fit in `limit_s` after `elapsed_s`.
+fn fits_another_generation(
+    settings: &RobustSettings,
+    g: usize,
+    elapsed_s: f64,
+    limit_s: f64,
+) -> bool {
+    // A generation is about 16 candidates on 96 worlds × 3/4 each (racing).
+    let per_gen = (settings.population * settings.samples * 3 / 4).max(1) as f64;
+    let val = (settings.finalists * settings.validation_samples) as f64;
+    let gen_s = elapsed_s / g.max(1) as f64;
+    // Validation runs at the fine step: two to three times the cost per replay (a 2.0 × 1.2
+    // reserve let a search at load 6 finish in 64 s). At the end of a round its own
+    // validation runs before the next round's first generation: reserve both.
+    let val_s = gen_s * 3.0 * val / per_gen;
+    let round_end = g % settings.generations.max(1) == 0;
+    let next = gen_s + val_s * if round_end { 2.0 } else { 1.0 };
+    elapsed_s + 1.2 * next < limit_s
 }
 
 struct RobustOutput<'a> {
@@ -314,6 +352,7 @@ struct RobustOutput<'a> {
     pushes: usize,
     time_limited: bool,
     check_seed: u64,
+    validation_samples: usize,
 }
 
 fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
@@ -325,7 +364,8 @@ fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
         "validation_rate": r.validation_rate, "replays": r.trials,
         "time_limited": o.time_limited,
         "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
-        "iterations": r.evaluations, "generations": r.generations,
+        "iterations": r.evaluations, "generations": r.generations, "rounds": r.rounds,
+        "validation_samples": o.validation_samples,
         "planning_ms": planning_ms, "seed": args.seed, "plan": &args.out,
         "parameters": mesopush_host::plan::skeleton::NAMES.iter().zip(r.skeleton.params)
             .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
@@ -348,11 +388,13 @@ fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
             100.0 * r.training_rate
         );
         println!(
-            "on the validation worlds {:.1} %; {} candidates in {} generations ({} replays), \
-             {planning_ms:.0} ms{}",
+            "on the {} validation worlds {:.1} %; {} candidates in {} generations of {} \
+             rounds ({} replays), {planning_ms:.0} ms{}",
+            o.validation_samples,
             100.0 * r.validation_rate.unwrap_or(f64::NAN),
             r.evaluations,
             r.generations,
+            r.rounds,
             r.trials,
             if o.time_limited { " (cut by --time-limit-s)" } else { "" }
         );
