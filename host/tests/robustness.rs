@@ -262,7 +262,7 @@ fn support_set_files_load_as_toml_or_json_and_name_a_bad_candidate() {
 }
 
 #[test]
-fn the_search_starts_at_the_shipped_robust_plan() {
+fn the_shipped_start_is_the_shipped_robust_plan_and_the_default_is_table2() {
     use mesopush_host::plan::{RobustSettings, Skeleton};
     let shipped = Plan::load(std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -271,7 +271,7 @@ fn the_search_starts_at_the_shipped_robust_plan() {
     .unwrap();
     let start = Plan::table2().peg_start;
     let best = Skeleton::best_known().to_plan("", start);
-    assert_eq!(RobustSettings::default().initial, Skeleton::best_known());
+    assert_eq!(RobustSettings::default().initial, Skeleton::table2_like());
     assert_eq!(best.probe_start_um, shipped.probe_start_um);
     assert_eq!(best.moves_um.len(), shipped.moves_um.len());
     for (a, b) in best.moves_um.iter().zip(&shipped.moves_um) {

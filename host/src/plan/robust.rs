@@ -72,8 +72,9 @@ pub struct RobustSettings {
     /// Default 1.0.
     pub target_rate: f64,
     /// Where every round's search starts (the first generation's sampling mean, scored and
-    /// always a finalist). Default [`Skeleton::best_known`]; [`Skeleton::table2_like`] is the
-    /// cold start of the paper's numbers.
+    /// always a finalist). Default [`Skeleton::table2_like`], the paper's numbers: the search
+    /// designs the plan. [`Skeleton::best_known`] (the parameters of `plans/robust.toml`)
+    /// refines the shipped design instead; a search started there mostly returns it.
     pub initial: Skeleton,
 }
 
@@ -92,7 +93,7 @@ impl Default for RobustSettings {
             rounds: 3,
             accept_rate: 0.97,
             target_rate: 1.0,
-            initial: Skeleton::best_known(),
+            initial: Skeleton::table2_like(),
         }
     }
 }

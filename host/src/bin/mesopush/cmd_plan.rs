@@ -85,10 +85,11 @@ pub(crate) struct PlanArgs {
     /// With --robust: validation success rate that ends the search after a round.
     #[arg(long, default_value_t = RobustSettings::default().accept_rate)]
     accept_rate: f64,
-    /// With --robust: start the search at Table II's numbers instead of the best known design
-    /// (the cold start of the earlier rounds, docs/planning.md).
+    /// With --robust: start the search at the shipped design (plans/robust.toml's
+    /// parameters) instead of Table II's numbers. It then refines that design and mostly
+    /// returns it unchanged: a check of the shipped plan, not a design from scratch.
     #[arg(long)]
-    from_table2: bool,
+    from_shipped: bool,
     /// With --robust: candidates per CEM generation.
     #[arg(long, default_value_t = RobustSettings::default().population)]
     population: usize,
@@ -318,7 +319,7 @@ fn robust_settings(args: &PlanArgs) -> RobustSettings {
         rounds: args.rounds.max(1),
         accept_rate: args.accept_rate,
         elite: args.elite.clamp(1, args.population.max(2)),
-        initial: if args.from_table2 { Skeleton::table2_like() } else { Skeleton::best_known() },
+        initial: if args.from_shipped { Skeleton::best_known() } else { Skeleton::table2_like() },
         ..Default::default()
     }
 }
