@@ -86,3 +86,42 @@ fn restarts_from_the_resting_peg_reproduce_a_noise_free_trial() {
         assert!(e < 0.2, "seed {seed}: frame {k} off by {e} µm");
     }
 }
+
+/// The patch search must not depend on where the generator of `--confusion` puts its patch
+/// (the right or lower part of the workspace, 2–3× grippier): a *slipperier* patch over the
+/// *left* part of the plate (x < 1650 µm, μ 0.12 against the plate's 0.3) is named too and
+/// explains most of the held-out error.
+#[test]
+fn a_slippery_patch_on_the_other_side_is_named() {
+    use mesopush_host::diagnose::residual::Mse;
+    use mesopush_host::effects::FrictionPatch;
+    let seed = 31;
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut truth = true_nominal(&mut rng);
+    truth.effects.friction_patch =
+        Some(FrictionPatch { min_um: [-1e4, -1e4], max_um: [1650.0, 1e4], mu_surface: 0.12 });
+    let trials: Vec<TrialData> = (0..6)
+        .map(|i| {
+            let d = dir.path().join(format!("trial-{i:02}"));
+            let id = format!("trial-{i:02}");
+            write_trial(&d, &id, i, &truth, 3, &SynthNoise::default(), seed * 100 + i as u64)
+                .unwrap();
+            TrialData::load(&d, i).unwrap()
+        })
+        .collect();
+    let (train, test): (Vec<_>, Vec<_>) = trials.into_iter().partition(|t| t.index % 2 == 0);
+    let opts = Options {
+        nominal_evals: 150,
+        effect_evals: 80,
+        candidates: vec![Candidate::FrictionPatch, Candidate::SupportDrift],
+        ..Options::default()
+    };
+    let d = diagnose(&train, &test, &opts, &|_| {}).unwrap();
+    let (before, after) = (Mse::of(&d.residuals.0), Mse::of(&d.residuals.1));
+    for s in &d.scores {
+        eprintln!("seed {seed}: {:?} held-out {:.1} {:?}", s.candidate, s.heldout_norm, s.params);
+    }
+    assert_eq!(d.effect, Some(Candidate::FrictionPatch), "seed {seed}: {:?}", d.verdict);
+    assert!(after.xy_um2 < 0.3 * before.xy_um2, "seed {seed}: {before:?} -> {after:?}");
+}

@@ -9,6 +9,7 @@ pub mod attribute;
 pub mod candidates;
 pub mod data;
 pub mod fit;
+pub mod patch;
 pub mod predict;
 pub mod report;
 pub mod residual;

@@ -1,10 +1,8 @@
 //! Where each candidate's search starts. A simplex only finds what its start can see, so the
 //! starts come from the physics of each effect's signature:
-//! - a friction patch shows only where the peg straddles the patch's edge (a uniform change
-//!   of the surface friction scales every support force alike and moves nothing), so the
-//!   starts are half-planes whose edge runs through the training workspace (at the quartiles
-//!   of the measured peg positions, per axis), with a patch friction above and below the
-//!   nominal one; a patch on the high side with μ_patch = r·μ is the low side with μ/r;
+//! - a friction patch shows only where the peg's supports straddle the patch's edge (a
+//!   uniform change of the surface friction scales every support force alike and moves
+//!   nothing): its edge is scanned where the supports travelled (`diagnose::patch`);
 //! - a support drift is a trend of the support over the trials' places in the batch: the
 //!   support shift fitted to each training trial alone, regressed on its index, gives the
 //!   drift's first guess (the trend the residual shows by trial); the grid starts are
@@ -64,7 +62,7 @@ fn signature_starts(
     ctx: &StartContext<'_>,
 ) -> Vec<Vec<f64>> {
     match c {
-        Candidate::FrictionPatch => patch_starts(nominal, train),
+        Candidate::FrictionPatch => super::patch::patch_starts(nominal, train, ctx),
         Candidate::SpeedFriction => profile_starts(c, grid_starts(c, nominal), train, ctx),
         Candidate::SupportDrift => {
             let mut s = drift_starts(nominal, train);
@@ -204,33 +202,6 @@ fn drift_starts(nominal: &[f64], train: &[TrialData]) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// The `q` quantile of `v` (sorted in place).
-fn quantile(v: &mut [f64], q: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(((v.len() as f64 - 1.0) * q).round() as usize).copied().unwrap_or(0.0)
-}
-
-/// Friction-patch starts: half-planes x > edge or y > edge, the edge at the quartiles of the
-/// training peg positions, patch friction 0.4× and 2.5× the nominal surface friction; the
-/// rectangle's other sides at the parameter bounds (far outside any workspace).
-pub fn patch_starts(nominal: &[f64], train: &[TrialData]) -> Vec<Vec<f64>> {
-    let params = Candidate::FrictionPatch.effect_params();
-    let (lo, hi) = (params[1].lo, params[1].hi);
-    let mut xs: Vec<f64> = train.iter().flat_map(|t| &t.frames).map(|f| f.pose.x_um).collect();
-    let mut ys: Vec<f64> = train.iter().flat_map(|t| &t.frames).map(|f| f.pose.y_um).collect();
-    let mu_s = nominal[1];
-    let mut out = Vec::new();
-    for q in [0.25, 0.5, 0.75] {
-        let (ex, ey) = (quantile(&mut xs, q), quantile(&mut ys, q));
-        for ratio in [0.4, 2.5] {
-            let mu = (ratio * mu_s).clamp(params[0].lo, params[0].hi);
-            out.push([nominal, &[mu, ex, lo, hi, hi]].concat());
-            out.push([nominal, &[mu, lo, ey, hi, hi]].concat());
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -241,16 +212,5 @@ mod tests {
         let s = grid_starts(Candidate::Backlash, &nominal);
         assert_eq!(s.len(), 9);
         assert!(s.iter().all(|v| v.len() == 6 && v[..4] == nominal));
-    }
-
-    #[test]
-    fn a_patch_start_is_a_half_plane_through_the_workspace() {
-        let s = patch_starts(&[0.8, 0.3, 0.0, 0.0], &[]);
-        assert_eq!(s.len(), 12);
-        for v in &s {
-            let f = Candidate::FrictionPatch.apply(&crate::sim::Model::default(), v);
-            let p = f.effects.friction_patch.expect("a patch");
-            assert!(p.max_um[0] >= 1e4 && p.max_um[1] >= 1e4, "{p:?}");
-        }
     }
 }
