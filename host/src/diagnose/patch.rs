@@ -12,7 +12,7 @@
 //!   above all μ_probe and the support's place, to absorb the patch), the edge re-scanned
 //!   with them, the patch friction scanned on a ratio grid;
 //! - the rectangle's other sides, one at a time, scanned on the same grids, each kept only
-//!   when it lowers the training loss by [`SIDE_MIN_GAIN`] or more; tried for the
+//!   when it lowers the training loss by `SIDE_MIN_GAIN` (10 %) or more; tried for the
 //!   half-plane and for its mirror (the other side of the edge as the patch, frictions
 //!   swapped: the same motion, a different rectangle to grow), so a finite patch inside
 //!   the workspace is reachable from whichever of its edges the scan found.
