@@ -53,6 +53,8 @@ fn rows_written_come_back_and_the_outcome_is_final() {
         theta_rad: 0.5,
         frame_index: Some(0),
         residual_px: Some(0.1),
+        probe_tip_x_um: None,
+        probe_tip_y_um: None,
     };
     w.pose(&pose).unwrap();
     let out = Outcome { state: TrialState::Done, reason: None, inserted: Some(true) };

@@ -108,6 +108,8 @@ impl SimRunner {
                 theta_rad: p.theta_rad,
                 frame_index: None,
                 residual_px: None,
+                probe_tip_x_um: None,
+                probe_tip_y_um: None,
             })?;
         }
         for e in &r.events {

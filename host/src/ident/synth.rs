@@ -184,6 +184,8 @@ pub fn write_trial(
             theta_rad: truth.theta_rad + spec.noise_theta_rad * normal(rng),
             frame_index: Some(i as u64),
             residual_px: None,
+            probe_tip_x_um: None,
+            probe_tip_y_um: None,
         })?;
     }
     w.finish(Outcome { state: TrialState::Done, reason: None, inserted: None })

@@ -106,6 +106,8 @@ fn tracked_poses(
             theta_rad: p.theta_rad,
             frame_index: Some(f.index),
             residual_px: None,
+            probe_tip_x_um: m.probe_tip_um.map(|t| t.x),
+            probe_tip_y_um: m.probe_tip_um.map(|t| t.y),
         };
         out.push((row, m.is_flagged()));
     }

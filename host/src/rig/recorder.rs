@@ -348,6 +348,8 @@ impl Recorder {
             theta_rad: pose.theta_rad,
             frame_index: Some(index),
             residual_px: None,
+            probe_tip_x_um: m.probe_tip_um.map(|t| t.x),
+            probe_tip_y_um: m.probe_tip_um.map(|t| t.y),
         };
         self.writer.pose(&row)?;
         self.out.tracked.push(Tracked { row, t_exposure_us: t_abs, flagged: m.is_flagged() });

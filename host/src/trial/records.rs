@@ -70,4 +70,10 @@ pub struct PoseRow {
     pub frame_index: Option<u64>,
     /// RMS edge residual of the fit, px, when tracked from frames.
     pub residual_px: Option<f64>,
+    /// The probe tip as imaged, x, µm, when the tracker found it (absent in older logs).
+    #[serde(default)]
+    pub probe_tip_x_um: Option<f64>,
+    /// The probe tip as imaged, y, µm.
+    #[serde(default)]
+    pub probe_tip_y_um: Option<f64>,
 }
