@@ -112,18 +112,10 @@ fn robustness_cli_prints_the_json_summary() {
     assert!(dir.path().join("failures_table2.png").exists());
 }
 
-#[test]
-fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds() {
-    use mesopush_host::plan::{RobustSettings, Skeleton, World, design_robust};
-    let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
-    let world = World {
-        model: &model,
-        fixture: &fixture,
-        settings: &settings,
-        uncertainty: Uncertainty::default(),
-        supports: &[],
-    };
-    let rs = RobustSettings {
+/// A one-round, one-generation search small enough for a test: 4 candidates on 8 worlds,
+/// one common set, no validation, from Table II's numbers.
+fn small_search() -> mesopush_host::plan::RobustSettings {
+    mesopush_host::plan::RobustSettings {
         generations: 1,
         population: 4,
         elite: 2,
@@ -136,8 +128,22 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
         rounds: 1,
         accept_rate: 0.97,
         target_rate: 1.0,
-        initial: Skeleton::table2_like(),
+        initial: mesopush_host::plan::Skeleton::table2_like(),
+    }
+}
+
+#[test]
+fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds() {
+    use mesopush_host::plan::{RobustSettings, Skeleton, World, design_robust};
+    let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
+    let world = World {
+        model: &model,
+        fixture: &fixture,
+        settings: &settings,
+        uncertainty: Uncertainty::default(),
+        supports: &[],
     };
+    let rs = small_search();
     let start = Plan::table2().peg_start;
     let run = |rs: &RobustSettings, seed| {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -176,7 +182,7 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
 
 #[test]
 fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_the_incumbent() {
-    use mesopush_host::plan::{RobustSettings, Skeleton, World, design_robust};
+    use mesopush_host::plan::{RobustSettings, World, design_robust};
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
     let world = World {
         model: &model,
@@ -187,18 +193,12 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
     };
     let rs = RobustSettings {
         generations: 2,
-        population: 4,
-        elite: 2,
-        samples: 8,
         validation_samples: 6,
         finalists: 3,
         train_step_um: 10.0,
         resample: true,
         train_scale: 1.3,
-        rounds: 1,
-        accept_rate: 0.97,
-        target_rate: 1.0,
-        initial: Skeleton::table2_like(),
+        ..small_search()
     };
     let start = Plan::table2().peg_start;
     let run = |seed| {
