@@ -145,6 +145,18 @@ pub struct RigWorld {
 /// Step budget per physics advance (a bounded loop).
 const ADVANCE_BUDGET: usize = 100_000;
 
+/// How far the simulated probe path may cut a corner of the stage's path, µm (the stage
+/// reports positions in whole nm, so a straight move wanders by about that much).
+const CORNER_TOLERANCE_UM: f64 = 0.01;
+
+/// Distance from `p` to the segment `a`–`b`, µm.
+fn distance_to_segment(p: Vec2, a: Vec2, b: Vec2) -> f64 {
+    let ab = b - a;
+    let len2 = ab.dot(&ab);
+    let w = if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    (p - (a + ab * w)).norm()
+}
+
 impl RigWorld {
     /// A world with the probe at `probe_start_um` (fixture frame); the renderer's noise from
     /// `rng`.
@@ -268,6 +280,7 @@ impl RigWorld {
     /// the physics advances to it (or as far as the peg lets it).
     fn move_stage_to(&mut self, t_us: u64, stage_um: Vec2) {
         let tip = self.backlash.update(stage_um);
+        self.flush_corner(tip);
         if let Some((t0, p0)) = self.last_advance
             && t_us > t0
         {
@@ -277,6 +290,21 @@ impl RigWorld {
         self.last_advance = Some((t_us, stage_um));
         self.move_probe_to(tip);
         self.note_deflection(t_us);
+    }
+
+    /// Brings the physics to the pending tip (the last one not yet simulated, because it was
+    /// less than a step away) when going straight on to `next_um` would cut the corner there:
+    /// at a reversal the deepest point of a push would otherwise be skipped, and the peg would
+    /// stop up to a simulator step short of where the probe pushed it (lost motion a clean
+    /// world must not have; it read as backlash to `diagnose`).
+    fn flush_corner(&mut self, next_um: Vec2) {
+        let pending = self.commanded_um;
+        if self.blocked_at.is_some() || (pending - self.st.probe_um).norm() < 1e-9 {
+            return;
+        }
+        if distance_to_segment(pending, self.st.probe_um, next_um) > CORNER_TOLERANCE_UM {
+            self.move_probe_to(pending);
+        }
     }
 
     /// Advances the physics with the commanded tip at `target_um`. When the peg wedged, the
@@ -350,6 +378,7 @@ impl World for RigWorld {
         }
         // The backlash sees every stage position (a reversal inside a chord counts).
         let tip = self.backlash.update(target);
+        self.flush_corner(tip);
         if (tip - self.st.probe_um).norm() >= self.sim.settings().step_um {
             self.move_stage_to(sim_time_us, target);
         } else {
