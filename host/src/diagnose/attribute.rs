@@ -4,8 +4,10 @@
 //! `effect` when one candidate lowers the held-out error significantly (and wins on BIC),
 //! `unexplained` otherwise.
 
+use super::adequacy::refit_on_all;
 use super::candidates::{Candidate, NOMINAL};
 use super::data::TrialData;
+use super::decide::{Ambiguity, decide, training_lead};
 use super::fit::{Fit, fit, fit_where, loss};
 use super::predict::{predict, valid_over_batch};
 use super::residual::{Mse, Noise, Residual};
@@ -35,7 +37,7 @@ pub struct Options {
     /// Ambiguity: when the winner's held-out error stays above the floor band and another
     /// effect's is within this factor of it (1.15 = 15 % worse), two explanations fit the
     /// held-out trials about as well and neither explains them; the verdict is then
-    /// `unexplained` (naming both in `ambiguous_with`), never a guess between them.
+    /// `unexplained` (naming both in the diagnosis's `ambiguity`), never a guess between them.
     pub ambiguity_ratio: f64,
 }
 
@@ -96,9 +98,15 @@ pub struct Diagnosis {
     pub best: Fit,
     /// Measurement floor.
     pub noise: Noise,
-    /// When the verdict is `unexplained` because two effects tied well above the floor:
-    /// the two effects (best first).
-    pub ambiguous_with: Option<(Candidate, Candidate)>,
+    /// The nominal model refitted on every trial: its error there in noise units, when the
+    /// held-out error was above the floor band ([`super::adequacy`]).
+    pub nominal_all_norm: Option<f64>,
+    /// When the verdict is `unexplained` with two effects in the running: which, and why
+    /// neither was named.
+    pub ambiguity: Option<Ambiguity>,
+    /// When the verdict is `unexplained`: the effect that fits the training trials best
+    /// (beating the nominal BIC by `min_delta_bic`), a lead for whoever looks further.
+    pub training_lead: Option<Candidate>,
     /// Training and held-out trial ids.
     pub split: (Vec<String>, Vec<String>),
     /// Held-out residuals before (nominal) and after (extended model).
@@ -222,8 +230,18 @@ pub fn diagnose(
     for f in &fits {
         scores.push(score(f, heldout, s, &noise, with_tip));
     }
-    let floor = 2.0 + if with_tip { 1.0 } else { 0.0 };
-    let (verdict, best, ambiguous_with) = decide(&scores, &fits, e0, floor, opts);
+    let band = opts.floor_factor * (2.0 + if with_tip { 1.0 } else { 0.0 });
+    let all_norm = if e0 > band {
+        let evals = opts.nominal_evals / 2;
+        Some(refit_on_all(&all, &base, &nominal, s, &noise, evals, with_tip)?.error_norm)
+    } else {
+        None
+    };
+    let (verdict, best, ambiguity) = match all_norm {
+        Some(e) if e <= band => (Verdict::None, None, None),
+        _ => decide(&scores, &fits, e0, band / opts.floor_factor, opts),
+    };
+    let lead = training_lead(&scores, opts).filter(|_| verdict == Verdict::Unexplained);
     let best = best.cloned().unwrap_or_else(|| nominal.clone());
     let after = residuals(heldout, &best.model, s)?;
     attach_uncertainty(&best, &base, &mut scores, train, s, &noise);
@@ -234,7 +252,9 @@ pub fn diagnose(
         nominal,
         best,
         noise,
-        ambiguous_with,
+        nominal_all_norm: all_norm,
+        ambiguity,
+        training_lead: lead,
         split: (
             train.iter().map(|t| t.id.clone()).collect(),
             heldout.iter().map(|t| t.id.clone()).collect(),
@@ -242,40 +262,6 @@ pub fn diagnose(
         residuals: (before, after),
         heldout: heldout.to_vec(),
     })
-}
-
-/// The verdict from the scores (nominal first, then one per fit in `fits`' order): `none` at
-/// the floor; an effect that wins on BIC and on held-out error by `min_gain`, unless another
-/// qualifying effect ties with it well above the floor (`ambiguity_ratio`); else
-/// `unexplained`.
-fn decide<'f>(
-    scores: &[Score],
-    fits: &'f [Fit],
-    e0: f64,
-    floor: f64,
-    opts: &Options,
-) -> (Verdict, Option<&'f Fit>, Option<(Candidate, Candidate)>) {
-    if e0 <= opts.floor_factor * floor {
-        return (Verdict::None, None, None);
-    }
-    let bic0 = scores[0].bic;
-    let mut ok: Vec<(&Score, &Fit)> = scores[1..]
-        .iter()
-        .zip(fits)
-        .filter(|(sc, _)| sc.bic < bic0 - opts.min_delta_bic)
-        .filter(|(sc, _)| sc.heldout_norm <= (1.0 - opts.min_gain) * e0)
-        .collect();
-    ok.sort_by(|a, b| a.0.heldout_norm.total_cmp(&b.0.heldout_norm));
-    match ok.as_slice() {
-        [] => (Verdict::Unexplained, None, None),
-        [(w, _), (r, _), ..]
-            if w.heldout_norm > opts.floor_factor * floor
-                && r.heldout_norm <= opts.ambiguity_ratio * w.heldout_norm =>
-        {
-            (Verdict::Unexplained, None, Some((w.candidate, r.candidate)))
-        }
-        [(_, f), ..] => (Verdict::Effect, Some(*f), None),
-    }
 }
 
 fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bool) -> Score {
@@ -320,80 +306,5 @@ fn attach_uncertainty(
         let (lm, lp) = (at(-h), at(h));
         let curv = (lp - 2.0 * best.loss + lm) / (h * h);
         sc.params[i].2 = if curv > 0.0 { (2.0 * red / curv).sqrt() } else { f64::INFINITY };
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sim::Part;
-
-    fn fit_of(c: Candidate) -> Fit {
-        let model = base_model(&Part::default_peg());
-        Fit { candidate: c, values: vec![], model, loss: 1.0, n: 100, evals: 0 }
-    }
-
-    fn score_of(c: Candidate, bic: f64, heldout_norm: f64) -> Score {
-        let heldout = Mse { xy_um2: 0.0, theta_rad2: 0.0, tip_um2: 0.0 };
-        Score { candidate: c, params: vec![], bic, heldout, heldout_norm }
-    }
-
-    /// Patch seed 11 of the confusion run: drift and patch tied far above the floor and the
-    /// old rule named drift, a wrong effect.
-    #[test]
-    fn two_effects_tied_far_above_the_floor_are_unexplained_not_a_guess() {
-        let opts = Options::default();
-        let fits = [fit_of(Candidate::SupportDrift), fit_of(Candidate::FrictionPatch)];
-        let scores = [
-            score_of(Candidate::Nominal, 0.0, 40_000.0),
-            score_of(Candidate::SupportDrift, -500.0, 24_083.0),
-            score_of(Candidate::FrictionPatch, -400.0, 25_627.0),
-        ];
-        let (v, best, amb) = decide(&scores, &fits, 40_000.0, 2.0, &opts);
-        assert_eq!(v, Verdict::Unexplained);
-        assert!(best.is_none());
-        assert_eq!(amb, Some((Candidate::SupportDrift, Candidate::FrictionPatch)));
-    }
-
-    #[test]
-    fn a_clear_winner_or_one_at_the_floor_is_named_despite_a_runner_up() {
-        let opts = Options::default();
-        let fits = [fit_of(Candidate::Backlash), fit_of(Candidate::Adhesion)];
-        // Far above the floor but the runner-up is 2x worse: named.
-        let scores = [
-            score_of(Candidate::Nominal, 0.0, 600.0),
-            score_of(Candidate::Backlash, -500.0, 50.0),
-            score_of(Candidate::Adhesion, -400.0, 100.0),
-        ];
-        let (v, best, _) = decide(&scores, &fits, 600.0, 2.0, &opts);
-        assert_eq!((v, best.map(|f| f.candidate)), (Verdict::Effect, Some(Candidate::Backlash)));
-        // Tied, but the winner reaches the floor band: named.
-        let scores = [
-            score_of(Candidate::Nominal, 0.0, 600.0),
-            score_of(Candidate::Backlash, -500.0, 5.0),
-            score_of(Candidate::Adhesion, -400.0, 5.2),
-        ];
-        let (v, best, _) = decide(&scores, &fits, 600.0, 2.0, &opts);
-        assert_eq!((v, best.map(|f| f.candidate)), (Verdict::Effect, Some(Candidate::Backlash)));
-        // A runner-up that fails the BIC test does not make it ambiguous.
-        let scores = [
-            score_of(Candidate::Nominal, 0.0, 600.0),
-            score_of(Candidate::Backlash, -500.0, 50.0),
-            score_of(Candidate::Adhesion, 5.0, 51.0),
-        ];
-        let (v, _, amb) = decide(&scores, &fits, 600.0, 2.0, &opts);
-        assert_eq!((v, amb), (Verdict::Effect, None));
-    }
-
-    #[test]
-    fn at_the_floor_is_none_and_no_gain_is_unexplained() {
-        let opts = Options::default();
-        let fits = [fit_of(Candidate::Backlash)];
-        let scores =
-            [score_of(Candidate::Nominal, 0.0, 8.0), score_of(Candidate::Backlash, -50.0, 7.0)];
-        assert_eq!(decide(&scores, &fits, 8.0, 2.0, &opts).0, Verdict::None);
-        let scores =
-            [score_of(Candidate::Nominal, 0.0, 90.0), score_of(Candidate::Backlash, -50.0, 80.0)];
-        assert_eq!(decide(&scores, &fits, 90.0, 2.0, &opts).0, Verdict::Unexplained);
     }
 }

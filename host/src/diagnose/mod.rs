@@ -5,9 +5,11 @@
 //! the effect that explains it on held-out trials — or say honestly that none does, or that
 //! the residual is already at the measurement floor. `docs/diagnose.md` has the method.
 
+pub mod adequacy;
 pub mod attribute;
 pub mod candidates;
 pub mod data;
+pub mod decide;
 pub mod fit;
 pub mod patch;
 pub mod predict;
@@ -17,6 +19,7 @@ pub mod rig_batch;
 pub mod starts;
 pub mod structure;
 pub mod synth;
+pub mod tip;
 
 pub use attribute::{Diagnosis, Options, Verdict, diagnose};
 pub use candidates::Candidate;

@@ -99,7 +99,7 @@ pub fn tip_path(fx: &Effects, cmd: &[ProbePoint]) -> Vec<ProbePoint> {
 const CLEAR_GAP_UM: f64 = 100.0;
 
 /// The probe (tip path) at `t_s`, linearly interpolated, clamped to the path's span.
-fn probe_at(path: &[ProbePoint], t_s: f64) -> Vec2 {
+pub(super) fn probe_at(path: &[ProbePoint], t_s: f64) -> Vec2 {
     let i = path.partition_point(|p| p.t_s <= t_s);
     if i == 0 {
         return path[0].probe_um;

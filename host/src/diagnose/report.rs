@@ -3,6 +3,7 @@
 //! and the before/after residual plots.
 
 use super::attribute::{Diagnosis, Verdict};
+use super::decide::Ambiguity;
 use super::residual::Mse;
 use super::structure::Structure;
 use crate::Error;
@@ -15,29 +16,52 @@ pub fn mse_before_after(d: &Diagnosis) -> (Mse, Mse) {
     (Mse::of(&d.residuals.0), Mse::of(&d.residuals.1))
 }
 
+/// The verdict in one line, with its reason.
+fn verdict_line(d: &Diagnosis) -> String {
+    match (d.verdict, d.ambiguity) {
+        (Verdict::Effect, _) => format!("effect: {}", d.best.candidate.name()),
+        (Verdict::Unexplained, Some(Ambiguity::Tie(a, b))) => format!(
+            "unexplained: {} and {} fit the held-out trials about as well, and neither \
+             reaches the floor; no single library effect explains the residual",
+            a.name(),
+            b.name()
+        ),
+        (Verdict::Unexplained, Some(Ambiguity::TrainVsHeldout { heldout, train })) => format!(
+            "unexplained: {} fits the held-out trials best but {} fits the training trials \
+             far better; the evidence is split, no single library effect explains the residual",
+            heldout.name(),
+            train.name()
+        ),
+        (Verdict::Unexplained, None) => {
+            "unexplained: no library effect explains the residual on the held-out trials".into()
+        }
+        (Verdict::None, _) => match d.nominal_all_norm {
+            Some(e) => format!(
+                "none: the nominal model, refitted on every trial, reaches the floor band \
+                 ({e:.1} noise units); the held-out gap is the nominal parameters' \
+                 uncertainty on the training split, no missing effect found"
+            ),
+            None => {
+                "none: the residual is at the measurement floor; no missing effect found".into()
+            }
+        },
+    }
+}
+
 /// The report as text (markdown).
 pub fn text(d: &Diagnosis) -> String {
     let (b, a) = mse_before_after(d);
     let mut s = String::new();
-    let verdict = match d.verdict {
-        Verdict::Effect => format!("effect: {}", d.best.candidate.name()),
-        Verdict::Unexplained => match d.ambiguous_with {
-            Some((a, b)) => format!(
-                "unexplained: {} and {} fit the held-out trials about as well, and neither \
-                 reaches the floor; no single library effect explains the residual",
-                a.name(),
-                b.name()
-            ),
-            None => "unexplained: no library effect explains the residual".into(),
-        },
-        Verdict::None => {
-            "none: the residual is at the measurement floor; no missing effect found".into()
-        }
-    };
-    s += &format!("verdict: {verdict}\n");
+    s += &format!("verdict: {}\n", verdict_line(d));
     s += &format!("train: {}\nheld out: {}\n", d.split.0.join(", "), d.split.1.join(", "));
     if let Some(e) = d.effect {
         s += &format!("signature: {}\n", e.signature());
+    } else if let Some(l) = d.training_lead {
+        s += &format!(
+            "lead: {} fits the training trials best ({}), but is not named\n",
+            l.name(),
+            l.signature()
+        );
     }
     s += "\n| held-out | before | after |\n|---|---|---|\n";
     s += &format!("| X,Y MSE (µm²) | {:.3} | {:.3} |\n", b.xy_um2, a.xy_um2);
@@ -48,6 +72,9 @@ pub fn text(d: &Diagnosis) -> String {
         for (n, v, e) in &sc.params {
             s += &format!("  {n} = {v:.5} ± {e:.2}\n");
         }
+    }
+    if let Some(e) = d.nominal_all_norm {
+        s += &format!("\nnominal model refitted on every trial: {e:.2} noise units\n");
     }
     s += "\ncandidates (train BIC, held-out error in noise units; floor ≈ 2–3):\n";
     for sc in &d.scores {
@@ -81,11 +108,17 @@ pub fn json(d: &Diagnosis) -> Value {
         "verdict": d.verdict,
         "effect": d.effect.map(|e| e.name()),
         "signature": d.effect.map(|e| e.signature()),
-        "ambiguous_with": d.ambiguous_with.map(|(a, b)| [a.name(), b.name()]),
+        "ambiguous_with": d.ambiguity.map(|a| { let (x, y) = a.pair(); [x.name(), y.name()] }),
+        "ambiguity": d.ambiguity.map(|a| match a {
+            Ambiguity::Tie(..) => "tie",
+            Ambiguity::TrainVsHeldout { .. } => "train_vs_heldout",
+        }),
+        "training_lead": d.training_lead.map(|c| c.name()),
         "parameters": params,
         "mse_before": {"xy_um2": b.xy_um2, "theta_rad2": b.theta_rad2, "tip_um2": b.tip_um2},
         "mse_after": {"xy_um2": a.xy_um2, "theta_rad2": a.theta_rad2, "tip_um2": a.tip_um2},
         "noise": d.noise,
+        "nominal_all_trials_norm": d.nominal_all_norm,
         "train": d.split.0,
         "heldout": d.split.1,
         "candidates": d.scores.iter().map(|s| json!({

@@ -189,8 +189,10 @@ fn cmd_state(data: &TrialData, t_s: f64) -> (Vec2, f64) {
 }
 
 impl Residual {
-    /// Measured minus predicted for every frame of `data`.
+    /// Measured minus predicted for every frame of `data` (the imaged tip as
+    /// [`super::tip::tip_residuals`] explains).
     pub fn new(data: &TrialData, pred: &Prediction) -> Self {
+        let tips = super::tip::tip_residuals(data, pred);
         let frames = data
             .frames
             .iter()
@@ -205,7 +207,7 @@ impl Residual {
                         m.pose.y_um - p.y_um,
                         m.pose.theta_rad - p.theta_rad,
                     ],
-                    tip: m.tip_um.map(|t| [t.x - pred.tips_um[i].x, t.y - pred.tips_um[i].y]),
+                    tip: tips[i],
                     cmd_vel_um_s,
                     pos_um: m.pose.position(),
                     force: pred.force[i],
