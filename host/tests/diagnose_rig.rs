@@ -8,18 +8,23 @@ use mesopush_host::diagnose::rig_batch::write_rig_batch;
 use mesopush_host::diagnose::{Candidate, Diagnosis, Options, TrialData, Verdict, diagnose};
 use mesopush_host::rig::WorldFile;
 
-/// The default world filming at 10 Hz (the tracker runs on every frame), with `effects`.
-fn world(effects: &str) -> WorldFile {
+/// The default world filming every `period_us` (the tracker runs on every frame), with
+/// `effects`.
+fn world_at(period_us: u64, effects: &str) -> WorldFile {
     let text = format!(
-        "name = \"diagnose rig test\"\n[camera]\nperiod_us = 100000\n[effects]\n{effects}\n"
+        "name = \"diagnose rig test\"\n[camera]\nperiod_us = {period_us}\n[effects]\n{effects}\n"
     );
     WorldFile::from_toml(&text, None).expect("test world")
 }
 
 fn run(effects: &str, seed: u64) -> Diagnosis {
+    run_in(&world_at(100_000, effects), effects, seed)
+}
+
+fn run_in(world: &WorldFile, effects: &str, seed: u64) -> Diagnosis {
     let dir = tempfile::tempdir().unwrap();
-    let dirs = write_rig_batch(dir.path(), &world(effects), 4, seed)
-        .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+    let dirs =
+        write_rig_batch(dir.path(), world, 4, seed).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
     let trials: Vec<TrialData> =
         dirs.iter().enumerate().map(|(i, d)| TrialData::load(d, i).unwrap()).collect();
     let (train, test): (Vec<_>, Vec<_>) = trials.into_iter().partition(|t| t.index % 2 == 0);
@@ -64,4 +69,17 @@ fn a_full_loop_backlash_batch_is_not_misattributed() {
         d.verdict,
         d.effect
     );
+}
+
+/// Caught by the 30 Hz clean controls of the shipped-world sweep: seed 6 named a friction
+/// patch (a false alarm) and seeds 5 and 7 read `unexplained`. The world lost up to 5 µm of
+/// each push at a reversal (fixed in `rig::world`), the tracker's touching and nearly
+/// touching tips were read as a bending needle (`diagnose::tip`), and two training pushes
+/// left the support's place 40 µm loose, which the all-trial refit now tells from a missing
+/// effect (`diagnose::adequacy`).
+#[test]
+fn a_clean_30_hz_batch_is_not_read_as_a_friction_patch() {
+    let seed = 6;
+    let d = run_in(&world_at(33_333, ""), "clean, 30 Hz", seed);
+    assert_eq!(d.verdict, Verdict::None, "seed {seed}: {:?}", d.effect);
 }
