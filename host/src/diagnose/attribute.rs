@@ -101,6 +101,8 @@ pub struct Diagnosis {
     /// The nominal model refitted on every trial: its error there in noise units, when the
     /// held-out error was above the floor band ([`super::adequacy`]).
     pub nominal_all_norm: Option<f64>,
+    /// The floor band, noise units: a held-out error below it is at the floor.
+    pub floor_band: f64,
     /// When the verdict is `unexplained` with two effects in the running: which, and why
     /// neither was named.
     pub ambiguity: Option<Ambiguity>,
@@ -253,6 +255,7 @@ pub fn diagnose(
         best,
         noise,
         nominal_all_norm: all_norm,
+        floor_band: band,
         ambiguity,
         training_lead: lead,
         split: (

@@ -3,6 +3,7 @@
 //! and the before/after residual plots.
 
 use super::attribute::{Diagnosis, Verdict};
+use super::candidates::Candidate;
 use super::decide::Ambiguity;
 use super::residual::Mse;
 use super::structure::Structure;
@@ -15,6 +16,35 @@ use std::path::Path;
 pub fn mse_before_after(d: &Diagnosis) -> (Mse, Mse) {
     (Mse::of(&d.residuals.0), Mse::of(&d.residuals.1))
 }
+
+/// Held-out error in noise units before (nominal) and after (the winner).
+fn norms(d: &Diagnosis) -> (f64, f64) {
+    let of = |c| d.scores.iter().find(|s| s.candidate == c).map_or(f64::NAN, |s| s.heldout_norm);
+    (of(Candidate::Nominal), of(d.best.candidate))
+}
+
+/// How much of the held-out error the named effect explains, and whether what remains is
+/// still far above the floor (another effect at once, or this one's model incomplete).
+fn remaining_line(d: &Diagnosis) -> String {
+    let (before, after) = norms(d);
+    let explained = 100.0 * (1.0 - after / before);
+    if after > REMAINING_FACTOR * d.floor_band {
+        format!(
+            "remaining: it explains {explained:.0} % of the held-out error; the rest ({after:.0} \
+             noise units, floor band {:.0}) is far above the floor — another effect at once, \
+             or this one's model incomplete\n",
+            d.floor_band
+        )
+    } else {
+        format!(
+            "remaining: it explains {explained:.1} % of the held-out error; the rest is near the floor\n"
+        )
+    }
+}
+
+/// What remains after the named effect counts as "far above the floor" beyond this many
+/// floor bands.
+const REMAINING_FACTOR: f64 = 10.0;
 
 /// The verdict in one line, with its reason.
 fn verdict_line(d: &Diagnosis) -> String {
@@ -56,6 +86,7 @@ pub fn text(d: &Diagnosis) -> String {
     s += &format!("train: {}\nheld out: {}\n", d.split.0.join(", "), d.split.1.join(", "));
     if let Some(e) = d.effect {
         s += &format!("signature: {}\n", e.signature());
+        s += &remaining_line(d);
     } else if let Some(l) = d.training_lead {
         s += &format!(
             "lead: {} fits the training trials best ({}), but is not named\n",
@@ -114,6 +145,10 @@ pub fn json(d: &Diagnosis) -> Value {
             Ambiguity::TrainVsHeldout { .. } => "train_vs_heldout",
         }),
         "training_lead": d.training_lead.map(|c| c.name()),
+        "heldout_norm_before": norms(d).0,
+        "heldout_norm_after": norms(d).1,
+        "floor_band": d.floor_band,
+        "remaining_far_above_floor": d.effect.is_some() && norms(d).1 > REMAINING_FACTOR * d.floor_band,
         "parameters": params,
         "mse_before": {"xy_um2": b.xy_um2, "theta_rad2": b.theta_rad2, "tip_um2": b.tip_um2},
         "mse_after": {"xy_um2": a.xy_um2, "theta_rad2": a.theta_rad2, "tip_um2": a.tip_um2},
