@@ -110,9 +110,10 @@ fn fits_another_generation(
     let val = (settings.finalists * settings.validation_samples) as f64;
     let conf = (settings.confirm_top * settings.confirm_samples) as f64;
     let gen_s = elapsed_s / g.max(1) as f64;
-    // Validation runs at the fine step, on the default box: measured 1.2 times the cost of a
-    // training replay (seed 3, one core: 7400 training and 6000 fine replays in 35 s), so 2
-    // leaves a margin for the load changing. At the end of a round its own validation runs
+    // Validation runs at the fine step, on the default box: about 1.7 times the cost of a
+    // training replay (one core: 1000 fine replays take 3.35 s in `mesopush robustness`, and
+    // seed 3's search ran 7400 training and 6000 fine replays in 35 s); 2 (3 until issue 6's
+    // round 4, which stopped that search after 6 of its 12 generations) keeps a margin. At the end of a round its own validation runs
     // before the next round's first generation: reserve both. The confirmation runs once,
     // at the very end.
     let fine_s = |replays: f64| gen_s * 2.0 * replays / per_gen;
