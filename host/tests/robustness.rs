@@ -127,6 +127,8 @@ fn small_search() -> mesopush_host::plan::RobustSettings {
         train_scale: 1.0,
         rounds: 1,
         accept_rate: 0.97,
+        confirm_top: 3,
+        confirm_samples: 0,
         target_rate: 1.0,
         initial: mesopush_host::plan::Skeleton::table2_like(),
     }
@@ -178,6 +180,23 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
     let rate = v.validation_rate.expect("validated");
     assert!((0.0..=1.0).contains(&rate), "{rate}");
     assert_eq!(v.trials, a.trials + 3 * 6);
+    assert_eq!(v.confirmation_rate, None, "no confirmation worlds");
+    // Confirmation: the two most validated finalists within reach of the first (Table II's
+    // numbers are not) run on 5 more worlds, drawn after the validation ones (the search
+    // itself is unchanged), and the winner's rate there is reported.
+    // (Seed 4, two generations: at seed 5 only the start is eligible, and no confirmation runs.)
+    let val = RobustSettings { generations: 2, validation_samples: 20, finalists: 3, ..rs };
+    let v = run(&val, 4);
+    let c = run(&RobustSettings { confirm_top: 2, confirm_samples: 5, ..val }, 4);
+    assert_eq!(c.trials, v.trials + 2 * 5, "seed 4, confirmation");
+    assert_eq!((c.evaluations, c.generations), (v.evaluations, v.generations));
+    let conf = c.confirmation_rate.expect("confirmed");
+    assert!((0.0..=1.0).contains(&conf) && (conf * 5.0).fract() == 0.0, "{conf}");
+    let alone = run(&RobustSettings { generations: 1, confirm_samples: 5, ..val }, 5);
+    assert_eq!(alone.confirmation_rate, None, "seed 5: the start alone is eligible");
+    // With room for three, still two: Table II's numbers are out of reach.
+    let all = run(&RobustSettings { confirm_top: 3, confirm_samples: 5, ..val }, 4);
+    assert_eq!(all.trials, c.trials, "seed 4: Table II's numbers confirmed");
 }
 
 #[test]

@@ -22,6 +22,7 @@ pub mod wilson;
 
 pub use montecarlo::{Estimate, MonteCarlo, Trial};
 pub use sampler::{SupportSet, Uncertainty};
+mod cem;
 pub mod figures;
 pub mod robust;
 pub mod skeleton;

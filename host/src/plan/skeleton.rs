@@ -12,6 +12,15 @@
 //! The start height never touches the peg, and no lift that touches the nominal peg helped (a
 //! point push on the long edge tilts the peg; docs/planning.md): both only gave the optimiser
 //! dimensions to overfit in.
+//!
+//! No seventh move either, so far: the failures of the good designs are one mechanism — the
+//! peg reaches the mouth still turned (14–20° after the rotation, more for the draws whose
+//! turn stalls), and the insertion push must finish the turn against the chamfers; pushed
+//! high, the left end drops and catches the lower chamfer ("too low"), pushed low, the turn
+//! is left unfinished. Added to `plans/robust.toml` (1000 draws, not re-tuned), a press on
+//! the left end, a lift of the right end, a retract-and-push-again at another height after a
+//! jam, a two-stage insertion and a sloped (staircase) insertion gave at most +0.7 points,
+//! most of them less than the plan without them (docs/planning.md).
 
 use crate::sim::Plan;
 use crate::sim::plan::PegStart;
@@ -60,9 +69,9 @@ impl Skeleton {
 
     /// The best design found for Table II's start on the paper's fixture: the shipped
     /// `plans/robust.toml` (`plan --robust --seed 2` of the cold-started search, 96.2 % and
-    /// 95.9 % on 1000 fresh draws of seeds 12345 and 777). The robust search starts here by
-    /// default, so a search cut short by the time limit refines a good design instead of
-    /// Table II's numbers (docs/planning.md).
+    /// 95.9 % on 1000 fresh draws of seeds 12345 and 777). `plan --robust --from-shipped`
+    /// starts here to refine or re-check it; the default search starts at
+    /// [`Skeleton::table2_like`] (docs/planning.md).
     pub fn best_known() -> Self {
         Self {
             params: [

@@ -5,11 +5,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_host::geom::Pose;
-use mesopush_host::plan::pushes::pushing_moves;
-use mesopush_host::plan::{
-    MonteCarlo, Progress, RobustSettings, RrtSettings, Skeleton, Uncertainty, World, design_robust,
-    plan_is_feasible, plan_rrt,
-};
+use mesopush_host::plan::{Progress, RobustSettings, RrtSettings, plan_rrt};
 use mesopush_host::plot::{PlanFigure, draw_plan};
 use mesopush_host::sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
 use rand::SeedableRng;
@@ -102,6 +98,12 @@ pub(crate) struct PlanArgs {
     /// With --robust: validation worlds the best candidates are re-scored on.
     #[arg(long, default_value_t = RobustSettings::default().validation_samples)]
     validation_samples: usize,
+    /// With --robust: the most validated finalists re-scored on fresh confirmation worlds.
+    #[arg(long, default_value_t = RobustSettings::default().confirm_top)]
+    confirm_top: usize,
+    /// With --robust: confirmation worlds (0: the most validated finalist wins).
+    #[arg(long, default_value_t = RobustSettings::default().confirm_samples)]
+    confirm_samples: usize,
     /// With --robust: fresh Monte Carlo trials for the reported success rate.
     #[arg(long, default_value_t = 400)]
     check_samples: usize,
@@ -131,10 +133,12 @@ pub(crate) fn load_world(model: Option<&Path>, fixture: Option<&Path>) -> Result
     Ok(Simulator::new(model, fixture, SimSettings::default())?)
 }
 
+mod robust;
+
 pub(crate) fn run(args: &PlanArgs) -> Result<()> {
     let mut sim = load_world(args.model.as_deref(), args.fixture.as_deref())?;
     if args.robust {
-        return run_robust(args, &mut sim);
+        return robust::run_robust(args, &mut sim);
     }
     let start = args.start.unwrap_or_else(|| Plan::table2().peg_start_pose());
     let settings = RrtSettings {
@@ -239,165 +243,4 @@ pub(crate) fn figure(sim: &mut Simulator, plan: &Plan, path: &Path) -> Result<()
         max_outlines: 25,
     };
     Ok(draw_plan(&fig, path)?)
-}
-
-fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
-    let mut start = Plan::table2().peg_start;
-    if let Some(p) = args.start {
-        (start.x_um, start.y_um, start.theta_deg) = (p.x_um, p.y_um, p.theta_rad.to_degrees());
-    }
-    let settings = robust_settings(args);
-    let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
-    let sim_settings = sim.settings().clone();
-    let world = World {
-        model: &model,
-        fixture: &fixture,
-        settings: &sim_settings,
-        uncertainty: Uncertainty::default(),
-        supports: &[],
-    };
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
-    let bar = bar((settings.generations * settings.rounds) as u64, args.json);
-    let t0 = Instant::now();
-    let limit = args.time_limit_s;
-    let mut time_limited = false;
-    let mut on_progress = |g: usize, best: f64| {
-        bar.set_position(g as u64);
-        bar.set_message(format!("best {:.1} %", 100.0 * best));
-        let go_on = fits_another_generation(&settings, g, t0.elapsed().as_secs_f64(), limit);
-        time_limited |= !go_on && g < settings.generations * settings.rounds;
-        go_on
-    };
-    let r = design_robust(&world, start, &settings, &mut rng, &mut on_progress)?;
-    let planning_ms = t0.elapsed().as_secs_f64() * 1e3;
-    bar.finish_and_clear();
-    let feasible = plan_is_feasible(sim, &r.plan)?;
-    let mc = MonteCarlo {
-        plan: &r.plan,
-        model: &model,
-        fixture: &fixture,
-        settings: &sim_settings,
-        uncertainty: Uncertainty::default(),
-        supports: &[],
-    };
-    // Fresh draws (a different master seed from the training worlds') for an honest figure.
-    let check_seed = args.check_seed.unwrap_or(args.seed.wrapping_add(0x005E_ED0F_C4EC));
-    let est = mc.estimate(args.check_samples.max(1), check_seed, &|| ())?;
-    std::fs::write(&args.out, r.plan.to_toml())
-        .with_context(|| format!("writing {}", args.out.display()))?;
-    if let Some(fig) = &args.figure {
-        figure(sim, &r.plan, fig)?;
-    }
-    let pushes = pushing_moves(&replay(sim, &r.plan, None)?);
-    let train = settings.samples;
-    let out = RobustOutput {
-        result: &r,
-        est: &est,
-        feasible,
-        planning_ms,
-        train,
-        pushes,
-        time_limited,
-        check_seed,
-        validation_samples: settings.validation_samples,
-    };
-    print_robust(args, &out);
-    Ok(())
-}
-
-/// The optimiser's settings from the flags.
-fn robust_settings(args: &PlanArgs) -> RobustSettings {
-    RobustSettings {
-        generations: args.generations.max(1),
-        samples: args.train_samples.max(2),
-        validation_samples: args.validation_samples,
-        train_step_um: args.train_step_um,
-        resample: !args.common_worlds,
-        train_scale: args.train_scale,
-        finalists: args.finalists.max(1),
-        population: args.population.max(2),
-        rounds: args.rounds.max(1),
-        accept_rate: args.accept_rate,
-        elite: args.elite.clamp(1, args.population.max(2)),
-        initial: if args.from_shipped { Skeleton::best_known() } else { Skeleton::table2_like() },
-        ..Default::default()
-    }
-}
-
-/// Whether generation `g + 1` and the validation still fit in `limit_s` after `elapsed_s`.
-fn fits_another_generation(
-    settings: &RobustSettings,
-    g: usize,
-    elapsed_s: f64,
-    limit_s: f64,
-) -> bool {
-    // A generation is about 16 candidates on 96 worlds × 3/4 each (racing).
-    let per_gen = (settings.population * settings.samples * 3 / 4).max(1) as f64;
-    let val = (settings.finalists * settings.validation_samples) as f64;
-    let gen_s = elapsed_s / g.max(1) as f64;
-    // Validation runs at the fine step: two to three times the cost per replay (a 2.0 × 1.2
-    // reserve let a search at load 6 finish in 64 s). At the end of a round its own
-    // validation runs before the next round's first generation: reserve both.
-    let val_s = gen_s * 3.0 * val / per_gen;
-    let round_end = g % settings.generations.max(1) == 0;
-    let next = gen_s + val_s * if round_end { 2.0 } else { 1.0 };
-    elapsed_s + 1.2 * next < limit_s
-}
-
-struct RobustOutput<'a> {
-    result: &'a mesopush_host::plan::RobustResult,
-    est: &'a mesopush_host::plan::Estimate,
-    feasible: bool,
-    planning_ms: f64,
-    train: usize,
-    pushes: usize,
-    time_limited: bool,
-    check_seed: u64,
-    validation_samples: usize,
-}
-
-fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
-    let (r, est, feasible, planning_ms) = (o.result, o.est, o.feasible, o.planning_ms);
-    let summary = json!({
-        "found": true, "robust": true, "nominal_feasible": feasible,
-        "success_rate": est.success_rate, "ci_low": est.ci_low, "ci_high": est.ci_high,
-        "samples": est.samples, "check_seed": o.check_seed, "training_rate": r.training_rate,
-        "validation_rate": r.validation_rate, "replays": r.trials,
-        "time_limited": o.time_limited,
-        "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
-        "iterations": r.evaluations, "generations": r.generations, "rounds": r.rounds,
-        "validation_samples": o.validation_samples,
-        "planning_ms": planning_ms, "seed": args.seed, "plan": &args.out,
-        "parameters": mesopush_host::plan::skeleton::NAMES.iter().zip(r.skeleton.params)
-            .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
-    });
-    if args.json {
-        println!("{summary}");
-    } else {
-        println!(
-            "robust plan: {} (nominal replay {})",
-            args.out.display(),
-            if feasible { "inserts" } else { "does NOT insert" }
-        );
-        println!(
-            "success on {} fresh trials: {:.1} % (95 % interval {:.1}–{:.1} %); on the {} training worlds {:.1} %",
-            est.samples,
-            100.0 * est.success_rate,
-            100.0 * est.ci_low,
-            100.0 * est.ci_high,
-            o.train,
-            100.0 * r.training_rate
-        );
-        println!(
-            "on the {} validation worlds {:.1} %; {} candidates in {} generations of {} \
-             rounds ({} replays), {planning_ms:.0} ms{}",
-            o.validation_samples,
-            100.0 * r.validation_rate.unwrap_or(f64::NAN),
-            r.evaluations,
-            r.generations,
-            r.rounds,
-            r.trials,
-            if o.time_limited { " (cut by --time-limit-s)" } else { "" }
-        );
-    }
 }
