@@ -101,6 +101,10 @@ pub struct Diagnosis {
     /// The nominal model refitted on every trial: its error there in noise units, when the
     /// held-out error was above the floor band ([`super::adequacy`]).
     pub nominal_all_norm: Option<f64>,
+    /// The named effect refitted on every trial: its error there in noise units, when the
+    /// nominal refit on every trial reached the floor band (the effect is kept only when it
+    /// lowers that error by `min_gain`).
+    pub effect_all_norm: Option<f64>,
     /// The floor band, noise units: a held-out error below it is at the floor.
     pub floor_band: f64,
     /// When the verdict is `unexplained` with two effects in the running: which, and why
@@ -239,10 +243,19 @@ pub fn diagnose(
     } else {
         None
     };
-    let (verdict, best, ambiguity) = match all_norm {
-        Some(e) if e <= band => (Verdict::None, None, None),
-        _ => decide(&scores, &fits, e0, band / opts.floor_factor, opts),
-    };
+    let (mut verdict, mut best, mut ambiguity) =
+        decide(&scores, &fits, e0, band / opts.floor_factor, opts);
+    let mut effect_all_norm = None;
+    if let Some(e_all) = all_norm.filter(|&e| e <= band) {
+        if let Some(f) = best {
+            let evals = opts.effect_evals / 2;
+            effect_all_norm =
+                Some(refit_on_all(&all, &base, f, s, &noise, evals, with_tip)?.error_norm);
+        }
+        if !effect_all_norm.is_some_and(|e| e <= (1.0 - opts.min_gain) * e_all) {
+            (verdict, best, ambiguity) = (Verdict::None, None, None);
+        }
+    }
     let lead = training_lead(&scores, opts).filter(|_| verdict == Verdict::Unexplained);
     let best = best.cloned().unwrap_or_else(|| nominal.clone());
     let after = residuals(heldout, &best.model, s)?;
@@ -255,6 +268,7 @@ pub fn diagnose(
         best,
         noise,
         nominal_all_norm: all_norm,
+        effect_all_norm,
         floor_band: band,
         ambiguity,
         training_lead: lead,

@@ -107,6 +107,9 @@ pub fn text(d: &Diagnosis) -> String {
     if let Some(e) = d.nominal_all_norm {
         s += &format!("\nnominal model refitted on every trial: {e:.2} noise units\n");
     }
+    if let Some(e) = d.effect_all_norm {
+        s += &format!("held-out winner refitted on every trial: {e:.2} noise units\n");
+    }
     s += "\ncandidates (train BIC, held-out error in noise units; floor ≈ 2–3):\n";
     for sc in &d.scores {
         s += &format!(
@@ -154,6 +157,7 @@ pub fn json(d: &Diagnosis) -> Value {
         "mse_after": {"xy_um2": a.xy_um2, "theta_rad2": a.theta_rad2, "tip_um2": a.tip_um2},
         "noise": d.noise,
         "nominal_all_trials_norm": d.nominal_all_norm,
+        "effect_all_trials_norm": d.effect_all_norm,
         "train": d.split.0,
         "heldout": d.split.1,
         "candidates": d.scores.iter().map(|s| json!({
