@@ -4,7 +4,7 @@
 //! `effect` when one candidate lowers the held-out error significantly (and wins on BIC),
 //! `unexplained` otherwise.
 
-use super::adequacy::refit_on_all;
+use super::adequacy::AllTrials;
 use super::candidates::{Candidate, NOMINAL};
 use super::data::TrialData;
 use super::decide::{Ambiguity, decide, training_lead};
@@ -185,6 +185,10 @@ fn rescue_nominal(
     }
 }
 
+fn ids(trials: &[TrialData]) -> Vec<String> {
+    trials.iter().map(|t| t.id.clone()).collect()
+}
+
 fn bic(f: &Fit) -> f64 {
     let n = f.n as f64;
     n * (f.loss / n).max(1e-300).ln() + f.values.len() as f64 * n.ln()
@@ -237,25 +241,11 @@ pub fn diagnose(
         scores.push(score(f, heldout, s, &noise, with_tip));
     }
     let band = opts.floor_factor * (2.0 + if with_tip { 1.0 } else { 0.0 });
-    let all_norm = if e0 > band {
-        let evals = opts.nominal_evals / 2;
-        Some(refit_on_all(&all, &base, &nominal, s, &noise, evals, with_tip)?.error_norm)
-    } else {
-        None
-    };
-    let (mut verdict, mut best, mut ambiguity) =
-        decide(&scores, &fits, e0, band / opts.floor_factor, opts);
-    let mut effect_all_norm = None;
-    if let Some(e_all) = all_norm.filter(|&e| e <= band) {
-        if let Some(f) = best {
-            let evals = opts.effect_evals / 2;
-            effect_all_norm =
-                Some(refit_on_all(&all, &base, f, s, &noise, evals, with_tip)?.error_norm);
-        }
-        if !effect_all_norm.is_some_and(|e| e <= (1.0 - opts.min_gain) * e_all) {
-            (verdict, best, ambiguity) = (Verdict::None, None, None);
-        }
-    }
+    let (verdict, best, ambiguity) = decide(&scores, &fits, e0, band / opts.floor_factor, opts);
+    let batch = AllTrials { all: &all, base: &base, settings: s, noise: &noise, with_tip };
+    let adequacy = batch.judge(&nominal, best, e0, band, opts)?;
+    let (verdict, best, ambiguity) =
+        if adequacy.overrules { (Verdict::None, None, None) } else { (verdict, best, ambiguity) };
     let lead = training_lead(&scores, opts).filter(|_| verdict == Verdict::Unexplained);
     let best = best.cloned().unwrap_or_else(|| nominal.clone());
     let after = residuals(heldout, &best.model, s)?;
@@ -267,15 +257,12 @@ pub fn diagnose(
         nominal,
         best,
         noise,
-        nominal_all_norm: all_norm,
-        effect_all_norm,
+        nominal_all_norm: adequacy.nominal_norm,
+        effect_all_norm: adequacy.effect_norm,
         floor_band: band,
         ambiguity,
         training_lead: lead,
-        split: (
-            train.iter().map(|t| t.id.clone()).collect(),
-            heldout.iter().map(|t| t.id.clone()).collect(),
-        ),
+        split: (ids(train), ids(heldout)),
         residuals: (before, after),
         heldout: heldout.to_vec(),
     })
