@@ -101,11 +101,15 @@ struct PainterThread {
 
 impl PainterThread {
     fn spawn(mut painter: Painter) -> Self {
+        Self::spawn_with(move |t| painter.paint_image(t))
+    }
+
+    fn spawn_with(mut paint: impl FnMut(&TruthSample) -> GrayImage + Send + 'static) -> Self {
         let (truth, truth_rx) = bounded::<(u32, TruthSample)>(PAINT_QUEUE);
         let (image_tx, images) = bounded::<(u32, GrayImage)>(PAINT_QUEUE);
         let handle = std::thread::spawn(move || {
             for (seq, t) in truth_rx {
-                if image_tx.send((seq, painter.paint_image(&t))).is_err() {
+                if image_tx.send((seq, paint(&t))).is_err() {
                     break;
                 }
             }
@@ -113,9 +117,14 @@ impl PainterThread {
         Self { truth, images, handle }
     }
 
+    /// Stops the painter: both queues are dropped first, so a painter blocked on a full
+    /// image queue (the loop ended with frames still in the painter's hands) gets an error
+    /// and ends instead of waiting forever on a receiver nobody reads.
     fn join(self) {
-        drop(self.truth);
-        let _ = self.handle.join();
+        let Self { truth, images, handle } = self;
+        drop(truth);
+        drop(images);
+        let _ = handle.join();
     }
 }
 
@@ -340,5 +349,38 @@ impl Loop<'_> {
             self.relay.forward(RecMsg::Host(t, msg));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{Pose, Vec2};
+
+    /// Caught by `hil_processes` under load: `demo --realtime` hung for good after its loop
+    /// ended, the main thread joining a painter blocked on a full image queue whose receiver
+    /// the join kept alive. The join must return; a hang fails the wait below.
+    #[test]
+    fn the_painter_stops_when_its_image_queue_is_full_and_unread() {
+        let painter = PainterThread::spawn_with(|_| GrayImage::new(4, 4));
+        let t = TruthSample {
+            t_us: 0,
+            peg: Pose::new(0.0, 0.0, 0.0),
+            probe_um: Vec2::zeros(),
+            deflection_um: 0.0,
+            jams: 0,
+        };
+        for seq in 0..(2 * PAINT_QUEUE as u32 + 2) {
+            if painter.truth.send_timeout((seq, t), std::time::Duration::from_secs(5)).is_err() {
+                break; // the painter is blocked and its truth queue is full too
+            }
+        }
+        let (done_tx, done_rx) = bounded(1);
+        std::thread::spawn(move || {
+            painter.join();
+            let _ = done_tx.send(());
+        });
+        let joined = done_rx.recv_timeout(std::time::Duration::from_secs(60));
+        assert!(joined.is_ok(), "the painter thread did not stop");
     }
 }
