@@ -16,35 +16,45 @@ fn batch(
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut truth = true_nominal(&mut rng);
     truth.effects = realistic_effect(effect, &mut rng);
-    let trials = (0..n)
+    let trials = write_batch(dir.path(), &truth, n, strokes, |i| seed * 100 + i as u64);
+    (dir, trials)
+}
+
+/// Writes `n` synthetic trials of `truth` under `dir` (trial `i` seeded `noise_seed(i)`) and
+/// loads them back.
+fn write_batch(
+    dir: &std::path::Path,
+    truth: &mesopush_host::sim::Model,
+    n: usize,
+    strokes: usize,
+    noise_seed: impl Fn(usize) -> u64,
+) -> Vec<TrialData> {
+    (0..n)
         .map(|i| {
-            let d = dir.path().join(format!("trial-{i:02}"));
-            write_trial(
-                &d,
-                &format!("trial-{i:02}"),
-                i,
-                &truth,
-                strokes,
-                &SynthNoise::default(),
-                seed * 100 + i as u64,
-            )
-            .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+            let id = format!("trial-{i:03}");
+            let d = dir.join(&id);
+            write_trial(&d, &id, i, truth, strokes, &SynthNoise::default(), noise_seed(i))
+                .unwrap_or_else(|e| panic!("trial {i}: {e}"));
             TrialData::load(&d, i).unwrap()
         })
-        .collect();
-    (dir, trials)
+        .collect()
+}
+
+/// Blind diagnosis with even trials training and odd ones held out.
+fn diagnose_split(trials: Vec<TrialData>, opts: &Options) -> mesopush_host::diagnose::Diagnosis {
+    let (train, test): (Vec<_>, Vec<_>) = trials.into_iter().partition(|t| t.index % 2 == 0);
+    diagnose(&train, &test, opts, &|_| {}).unwrap()
 }
 
 fn run(effect: Candidate, seed: u64) -> mesopush_host::diagnose::Diagnosis {
     let (_d, trials) = batch(effect, seed, 6, 3);
-    let (train, test): (Vec<_>, Vec<_>) = trials.into_iter().partition(|t| t.index % 2 == 0);
     let opts = Options {
         nominal_evals: 300,
         effect_evals: 150,
         candidates: vec![Candidate::Backlash, Candidate::Latency, Candidate::Scale],
         ..Options::default()
     };
-    let d = diagnose(&train, &test, &opts, &|_| {}).unwrap();
+    let d = diagnose_split(trials, &opts);
     eprintln!("seed {seed} {effect:?}: {:?} {:?}", d.verdict, d.effect);
     for s in &d.scores {
         eprintln!(
@@ -101,23 +111,14 @@ fn a_slippery_patch_on_the_other_side_is_named() {
     let mut truth = true_nominal(&mut rng);
     truth.effects.friction_patch =
         Some(FrictionPatch { min_um: [-1e4, -1e4], max_um: [1650.0, 1e4], mu_surface: 0.12 });
-    let trials: Vec<TrialData> = (0..6)
-        .map(|i| {
-            let d = dir.path().join(format!("trial-{i:02}"));
-            let id = format!("trial-{i:02}");
-            write_trial(&d, &id, i, &truth, 3, &SynthNoise::default(), seed * 100 + i as u64)
-                .unwrap();
-            TrialData::load(&d, i).unwrap()
-        })
-        .collect();
-    let (train, test): (Vec<_>, Vec<_>) = trials.into_iter().partition(|t| t.index % 2 == 0);
+    let trials = write_batch(dir.path(), &truth, 6, 3, |i| seed * 100 + i as u64);
     let opts = Options {
         nominal_evals: 150,
         effect_evals: 80,
         candidates: vec![Candidate::FrictionPatch, Candidate::SupportDrift],
         ..Options::default()
     };
-    let d = diagnose(&train, &test, &opts, &|_| {}).unwrap();
+    let d = diagnose_split(trials, &opts);
     let (before, after) = (Mse::of(&d.residuals.0), Mse::of(&d.residuals.1));
     for s in &d.scores {
         eprintln!("seed {seed}: {:?} held-out {:.1} {:?}", s.candidate, s.heldout_norm, s.params);
@@ -137,23 +138,14 @@ fn a_small_support_drift_survives_the_all_trial_refit() {
     let dir = tempfile::tempdir().unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let truth = mesopush_host::diagnose::synth::batch_truth(Candidate::SupportDrift, n, &mut rng);
-    let trials: Vec<TrialData> = (0..n)
-        .map(|i| {
-            let id = format!("trial-{i:03}");
-            let d = dir.path().join(&id);
-            write_trial(&d, &id, i, &truth, 3, &SynthNoise::default(), seed * 1000 + i as u64)
-                .unwrap();
-            TrialData::load(&d, i).unwrap()
-        })
-        .collect();
-    let (train, test): (Vec<_>, Vec<_>) = trials.into_iter().partition(|t| t.index % 2 == 0);
+    let trials = write_batch(dir.path(), &truth, n, 3, |i| seed * 1000 + i as u64);
     let opts = Options {
         nominal_evals: 150,
         effect_evals: 80,
         candidates: vec![Candidate::SupportDrift, Candidate::Scale],
         ..Options::default()
     };
-    let d = diagnose(&train, &test, &opts, &|_| {}).unwrap();
+    let d = diagnose_split(trials, &opts);
     eprintln!(
         "seed {seed}: {:?} {:?}, nominal on all {:?}, winner on all {:?}",
         d.verdict, d.effect, d.nominal_all_norm, d.effect_all_norm
