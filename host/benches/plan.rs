@@ -38,13 +38,7 @@ fn rrt(c: &mut Criterion) {
     g.bench_function("montecarlo_table2_64", |b| {
         b.iter(|| black_box(mc.estimate(64, 11, &|| ()).expect("estimate")))
     });
-    let world = World {
-        model: &model,
-        fixture: &fixture,
-        settings: &sim_settings,
-        uncertainty: Uncertainty::default(),
-        supports: &[],
-    };
+    let world = World::nominal(&model, &fixture, &sim_settings);
     let rs = RobustSettings { generations: 1, validation_samples: 0, ..Default::default() };
     g.bench_function("robust_one_generation", |b| {
         b.iter(|| {

@@ -138,13 +138,7 @@ fn small_search() -> mesopush_host::plan::RobustSettings {
 fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds() {
     use mesopush_host::plan::{RobustSettings, Skeleton, World, design_robust};
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
-    let world = World {
-        model: &model,
-        fixture: &fixture,
-        settings: &settings,
-        uncertainty: Uncertainty::default(),
-        supports: &[],
-    };
+    let world = World::nominal(&model, &fixture, &settings);
     let rs = small_search();
     let start = Plan::table2().peg_start;
     let run = |rs: &RobustSettings, seed| {
@@ -203,13 +197,7 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
 fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_the_incumbent() {
     use mesopush_host::plan::{RobustSettings, World, design_robust};
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
-    let world = World {
-        model: &model,
-        fixture: &fixture,
-        settings: &settings,
-        uncertainty: Uncertainty::default(),
-        supports: &[],
-    };
+    let world = World::nominal(&model, &fixture, &settings);
     let rs = RobustSettings {
         generations: 2,
         validation_samples: 6,

@@ -152,6 +152,14 @@ pub struct World<'a> {
     pub supports: &'a [SupportDistribution],
 }
 
+impl<'a> World<'a> {
+    /// The paper's uncertainty ([`Uncertainty::default`]) around `model`, its supports
+    /// perturbed (no identified support set).
+    pub fn nominal(model: &'a Model, fixture: &'a Fixture, settings: &'a SimSettings) -> Self {
+        Self { model, fixture, settings, uncertainty: Uncertainty::default(), supports: &[] }
+    }
+}
+
 /// Success counts of every candidate on `worlds`: one flat parallel batch, in order.
 pub(super) fn successes(
     cands: &[Skeleton],

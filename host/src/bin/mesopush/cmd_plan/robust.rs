@@ -20,13 +20,7 @@ pub(super) fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
     let settings = robust_settings(args);
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
     let sim_settings = sim.settings().clone();
-    let world = World {
-        model: &model,
-        fixture: &fixture,
-        settings: &sim_settings,
-        uncertainty: Uncertainty::default(),
-        supports: &[],
-    };
+    let world = World::nominal(&model, &fixture, &sim_settings);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
     let bar = bar((settings.generations * settings.rounds) as u64, args.json);
     let t0 = Instant::now();
