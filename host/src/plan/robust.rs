@@ -82,9 +82,11 @@ pub struct RobustSettings {
     /// Default 1.0.
     pub target_rate: f64,
     /// Where every round's search starts (the first generation's sampling mean, scored and
-    /// always a finalist). Default [`Skeleton::table2_like`], the paper's numbers: the search
-    /// designs the plan. [`Skeleton::best_known`] (the parameters of `plans/robust.toml`)
-    /// refines the shipped design instead; a search started there mostly returns it.
+    /// always a finalist). Default [`Skeleton::right_press`], the paper's numbers with the
+    /// press over the rotated peg's right end: the search designs the plan
+    /// ([`Skeleton::table2_like`] is the paper's numbers alone). [`Skeleton::best_known`]
+    /// (the parameters of `plans/robust.toml`) refines the shipped design instead; a search
+    /// started there mostly returns it.
     pub initial: Skeleton,
 }
 
@@ -105,7 +107,7 @@ impl Default for RobustSettings {
             confirm_top: 3,
             confirm_samples: 1000,
             target_rate: 1.0,
-            initial: Skeleton::table2_like(),
+            initial: Skeleton::right_press(),
         }
     }
 }
@@ -243,10 +245,13 @@ pub fn design_robust(
         let val_worlds = val_worlds.get_or_insert_with(|| {
             draws(fine.model, &fine.uncertainty, fine.supports, n_val, rng.random())
         });
-        let skel: Vec<Skeleton> = finalists.iter().map(|f| f.0).collect();
+        // A finalist validated in an earlier round (the start is one in every round) keeps
+        // its outcomes: the worlds are the same.
+        let fresh: Vec<_> = finalists.iter().filter(|f| pool.iter().all(|p| p.0 != f.0)).collect();
+        let skel: Vec<Skeleton> = fresh.iter().map(|f| f.0).collect();
         let v = outcomes(&skel, val_worlds, fine, start);
         counts.replays += skel.len() * n_val;
-        pool.extend(finalists.iter().zip(v).map(|(f, v)| (f.0, f.1, v)));
+        pool.extend(fresh.iter().zip(v).map(|(f, v)| (f.0, f.1, v)));
         let best = pool.iter().map(|p| count(&p.2)).max().unwrap_or(0);
         if counts.stopped || best as f64 >= settings.accept_rate * n_val as f64 {
             break;
