@@ -131,6 +131,7 @@ fn small_search() -> mesopush_host::plan::RobustSettings {
         confirm_samples: 0,
         target_rate: 1.0,
         initial: mesopush_host::plan::Skeleton::table2_like(),
+        press_on_rotated: false,
     }
 }
 
@@ -270,7 +271,8 @@ fn support_set_files_load_as_toml_or_json_and_name_a_bad_candidate() {
 }
 
 #[test]
-fn the_shipped_start_is_the_shipped_robust_plan_and_the_default_is_table2_with_a_right_press() {
+fn the_shipped_start_is_the_shipped_robust_plan_and_the_default_is_table2_with_its_press_on_the_rotated_peg()
+ {
     use mesopush_host::plan::{RobustSettings, Skeleton};
     let shipped = Plan::load(std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -279,11 +281,8 @@ fn the_shipped_start_is_the_shipped_robust_plan_and_the_default_is_table2_with_a
     .unwrap();
     let start = Plan::table2().peg_start;
     let best = Skeleton::best_known().to_plan("", start);
-    let (d, t) = (RobustSettings::default().initial, Skeleton::table2_like());
-    assert_eq!(d, Skeleton::right_press());
-    // Table II's numbers but the press x.
-    let differ: Vec<usize> = (0..d.params.len()).filter(|&k| d.params[k] != t.params[k]).collect();
-    assert_eq!(differ, [2], "{d:?} vs {t:?}");
+    let d = RobustSettings::default();
+    assert_eq!((d.initial, d.press_on_rotated), (Skeleton::table2_like(), true));
     assert_eq!(best.probe_start_um, shipped.probe_start_um);
     assert_eq!(best.moves_um.len(), shipped.moves_um.len());
     for (a, b) in best.moves_um.iter().zip(&shipped.moves_um) {

@@ -24,6 +24,7 @@ pub use montecarlo::{Estimate, MonteCarlo, Trial};
 pub use sampler::{SupportSet, Uncertainty};
 mod cem;
 pub mod figures;
+pub mod press_start;
 pub mod robust;
 pub mod skeleton;
 

@@ -48,10 +48,6 @@ pub const BOUNDS: [(f64, f64); N_PARAMS] = [
     (350.0, 1200.0),
 ];
 
-/// Press x of [`Skeleton::right_press`], µm: over the right end of the peg after Table II's
-/// rotation (the rotated nominal peg spans about x = 1200–2800 µm).
-pub const RIGHT_PRESS_X_UM: f64 = 2600.0;
-
 /// Probe x while coming round the peg's right end, µm (Table II's 3100).
 const CLEAR_X_UM: f64 = 3100.0;
 /// Probe start, µm (Table II's).
@@ -71,28 +67,12 @@ impl Skeleton {
         Self { params: [640.0, 1550.0, 2000.0, 990.0, 1415.0, 550.0] }
     }
 
-    /// Where the default search starts: [`Skeleton::table2_like`] with the press moved over
-    /// the right end of the rotated peg (x = [`RIGHT_PRESS_X_UM`]), still at the centring
-    /// height. Every other number is Table II's.
-    ///
-    /// Why the right end: the press is the one move whose useful region is small. Pressed
-    /// there, it lowers the draws the rotation left high; anywhere else it either misses
-    /// every draw (a plateau at about 93.8 %) or tilts the peg. Ten one-round searches from
-    /// the middle of the peg found the right end in five and otherwise settled on the plateau
-    /// or worse (92.5–93.9 % on 2000 fresh draws); from the right end, seven of ten reached
-    /// 95.2–96.5 % (docs/planning.md). The search still sets all six numbers: the press
-    /// height it settles on (1130–1200 µm) is 150–200 µm below this start's.
-    pub fn right_press() -> Self {
-        let mut s = Self::table2_like();
-        s.params[2] = RIGHT_PRESS_X_UM;
-        s
-    }
-
     /// The best design found for Table II's start on the paper's fixture: the shipped
     /// `plans/robust.toml` (`plan --robust --from-table2 --seed 2`, a search from Table II's
     /// numbers; 96.2 % and 95.9 % on 1000 fresh draws of seeds 12345 and 777).
     /// `plan --robust --from-shipped` starts here to refine or re-check it; the default
-    /// search starts at [`Skeleton::right_press`] (docs/planning.md).
+    /// search starts at [`Skeleton::table2_like`] with its press moved onto the rotated peg
+    /// ([`super::press_start`], docs/planning.md).
     pub fn best_known() -> Self {
         Self {
             params: [
@@ -112,6 +92,14 @@ impl Skeleton {
             *p = p.clamp(lo, hi);
         }
         self
+    }
+
+    /// The plan cut after the rotation push (its first two moves: up to the rotation height,
+    /// then along −x to the rotation end).
+    pub fn rotation_plan(&self, peg_start: PegStart) -> Plan {
+        let mut plan = self.to_plan("rotation", peg_start);
+        plan.moves_um.truncate(2);
+        plan
     }
 
     /// The plan for a peg starting at `peg_start` (Table II's start in the paper).

@@ -82,14 +82,14 @@ pub(crate) struct PlanArgs {
     #[arg(long, default_value_t = RobustSettings::default().accept_rate)]
     accept_rate: f64,
     /// With --robust: start the search at the shipped design (plans/robust.toml's
-    /// parameters) instead of Table II's numbers with the press over the rotated peg's right
+    /// parameters) instead of Table II's numbers with the press on the rotated peg's right
     /// end. It then refines that design and mostly returns it unchanged: a check of the
     /// shipped plan, not a design from scratch.
     #[arg(long, conflicts_with = "from_table2")]
     from_shipped: bool,
     /// With --robust: start the search at Table II's numbers alone (the press over the
-    /// middle of the rotated peg), the default before issue 6's fifth round; it finds a
-    /// design of 95 % or more less often (docs/planning.md).
+    /// middle of the rotated peg, at the height that centres a level one), the default before
+    /// issue 6's fifth round; it finds a design of 95 % or more less often (docs/planning.md).
     #[arg(long)]
     from_table2: bool,
     /// With --robust: candidates per CEM generation.

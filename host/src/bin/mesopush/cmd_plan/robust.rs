@@ -87,13 +87,8 @@ fn robust_settings(args: &PlanArgs) -> RobustSettings {
         confirm_top: args.confirm_top.max(1),
         confirm_samples: args.confirm_samples,
         elite: args.elite.clamp(1, args.population.max(2)),
-        initial: if args.from_shipped {
-            Skeleton::best_known()
-        } else if args.from_table2 {
-            Skeleton::table2_like()
-        } else {
-            Skeleton::right_press()
-        },
+        initial: if args.from_shipped { Skeleton::best_known() } else { Skeleton::table2_like() },
+        press_on_rotated: !(args.from_shipped || args.from_table2),
         ..Default::default()
     }
 }
