@@ -221,7 +221,11 @@ fn check_report(v: &serde_json::Value, out: &Path) {
     assert!(trial.probe.iter().any(|r| r.rep_x_um.is_some()), "position reports recorded");
     assert!(trial.poses().unwrap().len() >= 30);
     let pngs = trial.frames.iter().filter_map(|f| f.file.as_ref()).count();
-    assert!(pngs >= 30 && out.join(trial.frames[0].file.as_ref().unwrap()).exists());
+    // The first stored image, not row 0: under load the camera can drop frames around the
+    // trial's start, and the recorder keeps a row without an image for each (regression: CI
+    // failed here on `frames[0].file` being None, the trial itself was fine).
+    let first = trial.frames.iter().find_map(|f| f.file.as_ref()).expect("a stored frame");
+    assert!(pngs >= 30 && out.join(first).exists(), "{pngs} images, first {first}");
     assert!(trial.events.iter().any(|e| e.kind == "started"));
     assert!(trial.events.iter().any(|e| e.kind == "done"));
     assert!(trial.events.iter().any(|e| e.kind == "verdict"));
