@@ -1,6 +1,7 @@
 //! Wire types shared by the mesopush host, executor and motion-controller firmware.
 //!
-//! `no_std`, no allocation: only message types, framing, checksums and version checks.
+//! `no_std`, no allocation: only message types, framing, checksums, version checks and the
+//! checked conversions between host units and the wire's integer units ([`units`]).
 //!
 //! # Layers
 //! - Messages: [`host`] (host ↔ executor), [`ctrl`] (executor ↔ controller), [`flash`]
@@ -32,6 +33,7 @@ pub mod host;
 pub mod link;
 pub mod max_size;
 pub mod reader;
+pub mod units;
 
 pub use ctrl::{CtrlToExec, ExecToCtrl};
 pub use error::WireError;

@@ -5,9 +5,9 @@
 //! change they make to the *measured* (tracked) trajectory against a clean world with the
 //! same seed.
 
-use mesopush_host::rig::{ClockMode, TrialReport, TrialSpec, WorldFile, run_trial};
-use mesopush_host::sim::Plan;
-use mesopush_host::trial::{Trial, TrialState};
+use mesopush_rig::{ClockMode, TrialReport, TrialSpec, WorldFile, run_trial};
+use mesopush_sim::Plan;
+use mesopush_trial::{Trial, TrialState};
 use std::path::Path;
 
 /// The default world filming at 20 Hz, with an `[effects]` table.

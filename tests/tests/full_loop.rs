@@ -5,10 +5,10 @@
 //! Cost: the real renderer and tracker run on every frame, so these worlds film at a few
 //! frames per second instead of 30 (the demo films at 30 Hz); nothing else is reduced.
 
-use mesopush_host::geom::Pose;
-use mesopush_host::rig::{ClockMode, TrialReport, TrialSpec, WorldFile, run_trial};
-use mesopush_host::sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
-use mesopush_host::trial::{Trial, TrialState};
+use mesopush_core::geom::Pose;
+use mesopush_rig::{ClockMode, TrialReport, TrialSpec, WorldFile, run_trial};
+use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
+use mesopush_trial::{Trial, TrialState};
 use std::path::Path;
 
 /// The default world filming at `period_us`, with extra `[faults]` lines.

@@ -1,0 +1,296 @@
+//! The batch engine: runs the trials a shard owns, one attempt at a time, under the policy's
+//! budget and retries, journalling every step (fsynced) so that killing the process at any
+//! moment and running the same command again continues where it stopped — no trial lost,
+//! none duplicated, a half-written attempt set aside (renamed) and run again.
+//!
+//! Batch directory: `batch.json` (the manifest: spec, plans, shard; a re-run with a
+//! different batch is refused), `journal.jsonl`, `trials/trial-000007-a1/` (trial logs in
+//! the `host::trial` format, one per attempt).
+
+use super::check;
+use super::journal::{AttemptRecord, JOURNAL, Journal, Record};
+use super::runner::{RunnerFactory, TrialJob, TrialResult, Verdict};
+use super::spec::{BatchSpec, attempt_seed, trial_id, trial_seed};
+use super::supervise::Supervisor;
+use crate::Error;
+use mesopush_core::fsx;
+use mesopush_core::geom::Pose;
+use mesopush_core::shard::Shard;
+use mesopush_sim::Plan;
+use rand::SeedableRng;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// The manifest's file name.
+pub const MANIFEST: &str = "batch.json";
+/// The manifest's format marker.
+pub const FORMAT: &str = "mesopush-batch";
+/// Trial directories live here, inside the batch directory.
+pub const TRIALS_DIR: &str = "trials";
+
+/// `batch.json`: what this directory holds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Always [`FORMAT`].
+    pub format: String,
+    /// 1.
+    pub format_version: u32,
+    /// The batch file as parsed (`out` cleared: where it lives does not change the batch).
+    pub spec: BatchSpec,
+    /// The plans' contents.
+    pub plans: Vec<Plan>,
+    /// Which trials this directory runs.
+    pub shard: Shard,
+}
+
+impl Manifest {
+    /// Reads `dir/batch.json`.
+    pub fn load(dir: &Path) -> Result<Self, Error> {
+        let path = dir.join(MANIFEST);
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        let m: Manifest = serde_json::from_str(&text)
+            .map_err(|e| Error::Parse { path: path.clone(), message: e.to_string() })?;
+        if m.format != FORMAT || m.format_version != 1 {
+            return Err(Error::Parse { path, message: "not a mesopush-batch v1 manifest".into() });
+        }
+        Ok(m)
+    }
+}
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct BatchConfig {
+    /// The batch.
+    pub spec: BatchSpec,
+    /// Its plans, loaded.
+    pub plans: Vec<Plan>,
+    /// The batch (or shard) directory.
+    pub out: PathBuf,
+    /// Which trials.
+    pub shard: Shard,
+    /// Stop this session after this many trials (the rest on the next run).
+    pub max_trials: Option<u64>,
+}
+
+/// Progress after each trial.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    /// Trials with a final record (including earlier sessions').
+    pub done: u64,
+    /// Trials in the shard.
+    pub total: u64,
+    /// Of those done, inserted.
+    pub succeeded: u64,
+    /// Done in earlier sessions.
+    pub resumed: u64,
+}
+
+/// What one session did.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Session {
+    /// Trials already done when it started.
+    pub resumed: u64,
+    /// Trials it finished.
+    pub ran: u64,
+    /// Attempt directories set aside (renamed) because an earlier run was interrupted.
+    pub discarded: u64,
+    /// Runners rebuilt after a stuck or panicked one.
+    pub restarts: u64,
+    /// A torn journal line saved here, when one was found.
+    pub torn_saved_to: Option<PathBuf>,
+    /// Wall-clock time of the session, s.
+    pub elapsed_s: f64,
+}
+
+/// The start pose the world gives trial `seed`: the first plan's nominal start, perturbed.
+pub fn peg_start(spec: &BatchSpec, plans: &[Plan], seed: u64) -> Pose {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let [x, y, t] = spec.world.perturbation;
+    plans[0].perturbed_starts(&mut rng, 1, (x, y, t))[0]
+}
+
+/// Directory of an attempt, relative to the batch directory.
+pub fn attempt_dir(index: u64, attempt: u32) -> String {
+    format!("{TRIALS_DIR}/{}-a{attempt}", trial_id(index))
+}
+
+fn open_manifest(cfg: &BatchConfig) -> Result<(), Error> {
+    let mut spec = cfg.spec.clone();
+    spec.out = None;
+    let m = Manifest {
+        format: FORMAT.into(),
+        format_version: 1,
+        spec,
+        plans: cfg.plans.clone(),
+        shard: cfg.shard,
+    };
+    std::fs::create_dir_all(cfg.out.join(TRIALS_DIR)).map_err(|e| Error::io(&cfg.out, e))?;
+    if cfg.out.join(MANIFEST).exists() {
+        let old = Manifest::load(&cfg.out)?;
+        if old != m {
+            return Err(Error::invalid(
+                "batch directory",
+                format!(
+                    "{} holds a different batch (batch file, plans or shard changed); \
+                     resume with the same command or choose another --out",
+                    cfg.out.display()
+                ),
+            ));
+        }
+        return Ok(());
+    }
+    let text = serde_json::to_string_pretty(&m).expect("manifest serialises");
+    Ok(mesopush_core::fsx::write_atomic(&cfg.out.join(MANIFEST), text.as_bytes())?)
+}
+
+/// What the journal says so far.
+#[derive(Debug, Default)]
+struct State {
+    done: BTreeMap<u64, Verdict>,
+    next_attempt: BTreeMap<u64, u32>,
+}
+
+fn replay_journal(records: &[Record]) -> State {
+    let mut s = State::default();
+    for r in records {
+        match r {
+            Record::Trial(a) => {
+                s.done.insert(a.index, a.result.verdict);
+            }
+            Record::Attempt(a) => {
+                s.next_attempt.insert(a.index, a.attempt + 1);
+            }
+            Record::Begin { .. } | Record::Discarded { .. } => {}
+        }
+    }
+    s
+}
+
+/// Sets aside every attempt directory of unfinished trials that an interrupted run left.
+fn discard_leftovers(
+    cfg: &BatchConfig,
+    state: &State,
+    journal: &mut Journal,
+) -> Result<u64, Error> {
+    let mut n = 0;
+    let max = cfg.spec.policy.max_attempts;
+    for index in (0..cfg.spec.trials).filter(|i| cfg.shard.owns(*i) && !state.done.contains_key(i))
+    {
+        let first = state.next_attempt.get(&index).copied().unwrap_or(1);
+        for attempt in first..=max {
+            let dir = cfg.out.join(attempt_dir(index, attempt));
+            if !dir.exists() {
+                continue;
+            }
+            let found = check::state_of(&dir);
+            let to = fsx::rename_aside(&dir, "discarded")?;
+            let renamed_to = to.strip_prefix(&cfg.out).unwrap_or(&to).to_string_lossy().into();
+            journal.append(&Record::Discarded { index, attempt, renamed_to, found })?;
+            n += 1;
+        }
+    }
+    Ok(n)
+}
+
+/// Runs (or resumes) the batch; calls `on_progress` after every trial.
+pub fn run(
+    cfg: &BatchConfig,
+    factory: RunnerFactory,
+    on_progress: &mut dyn FnMut(&Progress),
+) -> Result<Session, Error> {
+    let t0 = Instant::now();
+    cfg.spec.validate()?;
+    open_manifest(cfg)?;
+    let (mut journal, opened) = Journal::open(&cfg.out.join(JOURNAL))?;
+    let mut state = replay_journal(&opened.records);
+    let mut session = Session {
+        resumed: state.done.len() as u64,
+        torn_saved_to: opened.torn_saved_to,
+        ..Default::default()
+    };
+    session.discarded = discard_leftovers(cfg, &state, &mut journal)?;
+    let mut sup = Supervisor::new(factory)?;
+    let plans = Arc::new(cfg.plans.clone());
+    let total = (0..cfg.spec.trials).filter(|i| cfg.shard.owns(*i)).count() as u64;
+    let count_ok = |s: &State| s.done.values().filter(|v| **v == Verdict::Inserted).count();
+    let mut progress = Progress {
+        done: session.resumed,
+        total,
+        succeeded: count_ok(&state) as u64,
+        resumed: session.resumed,
+    };
+    on_progress(&progress);
+    let todo: Vec<u64> = (0..cfg.spec.trials)
+        .filter(|i| cfg.shard.owns(*i) && !state.done.contains_key(i))
+        .take(cfg.max_trials.map_or(usize::MAX, |m| m as usize))
+        .collect();
+    for index in todo {
+        let first = state.next_attempt.get(&index).copied().unwrap_or(1);
+        let verdict = run_trial(cfg, &mut sup, &mut journal, &plans, index, first)?;
+        state.done.insert(index, verdict);
+        session.ran += 1;
+        progress.done += 1;
+        progress.succeeded += u64::from(verdict == Verdict::Inserted);
+        on_progress(&progress);
+    }
+    session.restarts = sup.restarts;
+    session.elapsed_s = t0.elapsed().as_secs_f64();
+    Ok(session)
+}
+
+/// Runs the attempts of one trial from attempt `first`; returns its final verdict.
+fn run_trial(
+    cfg: &BatchConfig,
+    sup: &mut Supervisor,
+    journal: &mut Journal,
+    plans: &Arc<Vec<Plan>>,
+    index: u64,
+    first: u32,
+) -> Result<Verdict, Error> {
+    let policy = &cfg.spec.policy;
+    let seed = trial_seed(cfg.spec.seed, index);
+    let start = peg_start(&cfg.spec, plans, seed);
+    let timeout = Duration::from_secs_f64(policy.timeout_s);
+    let grace = Duration::from_secs_f64(policy.grace_s);
+    let mut attempt = first;
+    loop {
+        let dir = attempt_dir(index, attempt);
+        journal.append(&Record::Begin { index, attempt, dir: dir.clone() })?;
+        let t0 = Instant::now();
+        let job = TrialJob {
+            index,
+            trial_id: trial_id(index),
+            attempt,
+            trial_seed: seed,
+            attempt_seed: attempt_seed(seed, attempt),
+            peg_start: start,
+            plans: Arc::clone(plans),
+        };
+        let abs = cfg.out.join(&dir);
+        let result: TrialResult = sup.attempt(&job, &abs, timeout, grace)?;
+        let result = check::against_log(&abs, result);
+        let verdict = result.verdict;
+        let rec = AttemptRecord {
+            index,
+            trial_id: job.trial_id,
+            attempt,
+            trial_seed: seed,
+            attempt_seed: job.attempt_seed,
+            runner: sup.name().into(),
+            peg_start: start,
+            dir,
+            result,
+            wall_time_s: t0.elapsed().as_secs_f64(),
+        };
+        if policy.retry_on.contains(&verdict) && attempt < policy.max_attempts {
+            journal.append(&Record::Attempt(rec))?;
+            attempt += 1;
+            continue;
+        }
+        journal.append(&Record::Trial(rec))?;
+        return Ok(verdict);
+    }
+}

@@ -1,0 +1,143 @@
+//! The report's figures (plotters, PNG): success over time (the running success rate with
+//! its Wilson 95 % band, by trial index), the final-pose scatter over the fixture (coloured
+//! by verdict), and the wall time of every trial.
+
+use super::journal::AttemptRecord;
+use super::runner::Verdict;
+use super::stats::wilson95;
+use crate::Error;
+use mesopush_core::geom::ConvexPolygon;
+use mesopush_plot::DrawResult;
+use mesopush_plot::fixture_view::draw_walls_and_field;
+use mesopush_sim::fixture::FIELD_UM;
+use plotters::prelude::*;
+use std::path::Path;
+
+fn colour(v: Verdict) -> RGBColor {
+    match v {
+        Verdict::Inserted => RGBColor(30, 140, 60),
+        Verdict::Missed => RGBColor(200, 120, 0),
+        Verdict::Faulted => RGBColor(200, 30, 30),
+        Verdict::Timeout => RGBColor(120, 40, 160),
+        Verdict::Error => RGBColor(20, 20, 20),
+    }
+}
+
+fn fail(path: &Path) -> impl Fn(mesopush_plot::Error) -> Error + '_ {
+    move |e| Error::Plot(e.at(path))
+}
+
+/// Running success rate with its 95 % band, by trial index.
+pub fn success_over_time(finals: &[&AttemptRecord], path: &Path) -> Result<(), Error> {
+    let draw = || -> DrawResult {
+        let area = BitMapBackend::new(path, (900, 450)).into_drawing_area();
+        area.fill(&WHITE)?;
+        let n_max = finals.last().map_or(1, |a| a.index + 1) as f64;
+        let mut chart = ChartBuilder::on(&area)
+            .caption("Success over the batch (running rate, Wilson 95 % band)", ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0.0..n_max, 0.0..1.0)?;
+        chart.configure_mesh().x_desc("trial index").y_desc("success rate").draw()?;
+        let (mut k, mut rate, mut lo, mut hi) = (0u64, vec![], vec![], vec![]);
+        for (i, a) in finals.iter().enumerate() {
+            k += u64::from(a.result.verdict == Verdict::Inserted);
+            let n = i as u64 + 1;
+            let x = a.index as f64;
+            let [l, h] = wilson95(k, n);
+            rate.push((x, k as f64 / n as f64));
+            lo.push((x, l));
+            hi.push((x, h));
+        }
+        let band: Vec<_> = hi.iter().copied().chain(lo.iter().rev().copied()).collect();
+        chart.draw_series(std::iter::once(Polygon::new(band, BLUE.mix(0.15).filled())))?;
+        chart
+            .draw_series(LineSeries::new(rate, BLUE.stroke_width(2)))?
+            .label("running success rate")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
+        let marks = finals.iter().map(|a| {
+            let y = if a.result.verdict == Verdict::Inserted { 0.99 } else { 0.01 };
+            Circle::new((a.index as f64, y), 2, colour(a.result.verdict).filled())
+        });
+        chart.draw_series(marks)?;
+        chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+        area.present()?;
+        Ok(())
+    };
+    draw().map_err(fail(path))
+}
+
+/// Final peg positions over the fixture, coloured by verdict.
+pub fn final_poses(
+    finals: &[&AttemptRecord],
+    walls: &[ConvexPolygon],
+    goal: Option<&ConvexPolygon>,
+    path: &Path,
+) -> Result<(), Error> {
+    let draw = || -> DrawResult {
+        let area = BitMapBackend::new(path, (1011, 800)).into_drawing_area();
+        area.fill(&WHITE)?;
+        let (x0, x1) = (-1500.0, FIELD_UM[0] + 100.0);
+        let (y0, y1) = (-100.0, FIELD_UM[1] + 100.0);
+        let mut chart = ChartBuilder::on(&area)
+            .caption("Final peg positions (COM) by verdict", ("sans-serif", 20))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(55)
+            .build_cartesian_2d(x0..x1, y1..y0)?;
+        chart.configure_mesh().x_desc("x [µm]").y_desc("y [µm] (down)").disable_mesh().draw()?;
+        draw_walls_and_field(&mut chart, walls, (x0, x1, y0, y1))?;
+        if let Some(g) = goal {
+            let mut pts: Vec<_> =
+                g.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect();
+            pts.push(pts[0]);
+            chart.draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(1))))?;
+        }
+        for v in Verdict::ALL {
+            let pts: Vec<(f64, f64)> = finals
+                .iter()
+                .filter(|a| a.result.verdict == v)
+                .filter_map(|a| {
+                    a.result.final_pose.map(|p| (p.x_um.clamp(x0, x1), p.y_um.clamp(y0, y1)))
+                })
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let c = colour(v);
+            chart
+                .draw_series(pts.iter().map(|p| Circle::new(*p, 3, c.filled())))?
+                .label(format!("{} ({})", v.as_str(), pts.len()))
+                .legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled()));
+        }
+        chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+        area.present()?;
+        Ok(())
+    };
+    draw().map_err(fail(path))
+}
+
+/// Wall time of every trial (final attempt), by trial index.
+pub fn timing(finals: &[&AttemptRecord], path: &Path) -> Result<(), Error> {
+    let draw = || -> DrawResult {
+        let area = BitMapBackend::new(path, (900, 400)).into_drawing_area();
+        area.fill(&WHITE)?;
+        let n_max = finals.last().map_or(1, |a| a.index + 1) as f64;
+        let t_max = finals.iter().map(|a| a.wall_time_s * 1e3).fold(1.0, f64::max) * 1.1;
+        let mut chart = ChartBuilder::on(&area)
+            .caption("Wall time per trial (whole loop incl. log writes)", ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(55)
+            .build_cartesian_2d(0.0..n_max, 0.0..t_max)?;
+        chart.configure_mesh().x_desc("trial index").y_desc("wall time [ms]").draw()?;
+        chart.draw_series(finals.iter().map(|a| {
+            let c = colour(a.result.verdict);
+            Circle::new((a.index as f64, a.wall_time_s * 1e3), 2, c.filled())
+        }))?;
+        area.present()?;
+        Ok(())
+    };
+    draw().map_err(fail(path))
+}

@@ -1,0 +1,30 @@
+//! Unattended trial batches (`mesopush batch`): many trials of a plan against a world, run
+//! by a [`TrialRunner`] under a journal that survives being killed at any moment, with
+//! per-trial timeouts, retries, sharding by trial index into independent processes, a merge
+//! of shard outputs, and a report (success rate with its 95 % interval, failure reasons,
+//! timing, figures). The engine knows trials only through the runner trait. See
+//! `docs/batch.md`.
+
+pub mod check;
+pub mod engine;
+pub mod error;
+pub mod factory;
+pub mod figures;
+pub mod journal;
+pub mod merge;
+pub mod policy;
+pub mod report;
+pub mod rig_runner;
+pub mod runner;
+pub mod sim_runner;
+pub mod spec;
+pub mod stats;
+pub mod supervise;
+
+pub use engine::{BatchConfig, Manifest, Progress, Session, run};
+pub use error::Error;
+pub use factory::runner_factory;
+pub use rig_runner::RigRunner;
+pub use runner::{Cancel, RunnerFactory, TrialJob, TrialResult, TrialRunner, Verdict};
+pub use sim_runner::SimRunner;
+pub use spec::BatchSpec;

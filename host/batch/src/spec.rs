@@ -1,0 +1,284 @@
+//! The batch file (`batches/*.toml`): which plans, how many trials, the world (start-pose
+//! perturbation, camera faults, model and fixture), the runner, the retry and timeout policy
+//! and the output directory. Paths inside it are relative to the batch file; `out` is
+//! relative to the working directory (like every `--out`). Parsed strictly: an unknown field
+//! is an error naming it.
+
+use super::runner::Verdict;
+use crate::Error;
+use mesopush_sim::Plan;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Most trials one batch may hold (bounded loops; shard anything larger).
+pub const MAX_TRIALS: u64 = 10_000_000;
+
+/// The whole batch file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BatchSpec {
+    /// Free-text name.
+    #[serde(default)]
+    pub name: String,
+    /// The one seed every random choice of the batch derives from.
+    pub seed: u64,
+    /// Number of trials.
+    pub trials: u64,
+    /// Which runner: `rig` (the whole loop: executor, firmware simulator, camera, tracking;
+    /// the default) or `sim` (the host simulator alone; fast Monte Carlo).
+    #[serde(default = "default_runner")]
+    pub runner: String,
+    /// Output directory (relative to the working directory); `--out` overrides it.
+    #[serde(default)]
+    pub out: Option<PathBuf>,
+    /// Plan files (relative to the batch file). Several: the runner chooses the one whose
+    /// nominal start is nearest the estimated start.
+    pub plans: Vec<PathBuf>,
+    /// The simulated world.
+    #[serde(default)]
+    pub world: WorldSpec,
+    /// Start-pose estimation from the camera.
+    #[serde(default)]
+    pub camera: CameraSpec,
+    /// Timeouts and retries.
+    #[serde(default)]
+    pub policy: Policy,
+}
+
+fn default_runner() -> String {
+    "rig".into()
+}
+
+/// The world a trial runs in.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldSpec {
+    /// Uniform start perturbation half-widths: x µm, y µm, θ degrees (default the paper's
+    /// trials: 26 µm, 74 µm, 3°), around the first plan's nominal start.
+    #[serde(default = "default_perturbation")]
+    pub perturbation: [f64; 3],
+    /// Model TOML (relative to the batch file); default the nominal model.
+    #[serde(default)]
+    pub model: Option<PathBuf>,
+    /// Fixture TOML (relative to the batch file); default the paper's fixture. `sim` only
+    /// (the `rig` world is the paper's fixture).
+    #[serde(default)]
+    pub fixture: Option<PathBuf>,
+    /// `rig` only: the world file (`worlds/*.toml` format: the world's model, camera,
+    /// faults), relative to the batch file; default the embedded default world. Its
+    /// `peg.perturb` is ignored (`perturbation` above applies).
+    #[serde(default)]
+    pub file: Option<PathBuf>,
+}
+
+fn default_perturbation() -> [f64; 3] {
+    [26.0, 74.0, 3.0]
+}
+
+impl Default for WorldSpec {
+    fn default() -> Self {
+        Self { perturbation: default_perturbation(), model: None, fixture: None, file: None }
+    }
+}
+
+/// How the start pose is estimated from the camera before the plan is adapted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Render and track the first frame to estimate the start (default true). False: the
+    /// plan runs unadapted from its nominal start (open loop, as the paper's trials).
+    #[serde(default = "yes")]
+    pub estimate_start: bool,
+    /// Frames tried before the trial is faulted for want of a start pose (default 5).
+    #[serde(default = "default_frames")]
+    pub max_frames: u32,
+    /// Probability a frame is dropped (default 0).
+    #[serde(default)]
+    pub frame_drop: f64,
+    /// Probability a frame is black (default 0).
+    #[serde(default)]
+    pub frame_black: f64,
+    /// `rig` runner only: film each trial at this frame period, µs, instead of the world
+    /// file's (absent: the world's, 33 333 µs = 30 Hz). Rendering and tracking every frame is
+    /// most of a full-loop trial's cost, so a batch at scale films slower (e.g. 500 000 µs,
+    /// 2 Hz); the verdict still comes from the last tracked frame after the peg came to rest.
+    #[serde(default)]
+    pub film_period_us: Option<u64>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn default_frames() -> u32 {
+    5
+}
+
+impl CameraSpec {
+    /// The faults the start camera injects and how long it tries.
+    pub fn frame_faults(&self) -> mesopush_rig::start_camera::FrameFaults {
+        mesopush_rig::start_camera::FrameFaults {
+            max_frames: self.max_frames,
+            frame_drop: self.frame_drop,
+            frame_black: self.frame_black,
+        }
+    }
+}
+
+impl Default for CameraSpec {
+    fn default() -> Self {
+        Self {
+            estimate_start: true,
+            max_frames: default_frames(),
+            frame_drop: 0.0,
+            frame_black: 0.0,
+            film_period_us: None,
+        }
+    }
+}
+
+/// Timeouts and retries.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Policy {
+    /// Wall-clock budget of one attempt, s (default 120).
+    #[serde(default = "default_timeout")]
+    pub timeout_s: f64,
+    /// After cancelling, how long to wait for the runner to stop before abandoning it and
+    /// building a fresh one, s (default 5).
+    #[serde(default = "default_grace")]
+    pub grace_s: f64,
+    /// Attempts per trial (default 2: one retry).
+    #[serde(default = "default_attempts")]
+    pub max_attempts: u32,
+    /// Verdicts that earn another attempt (default `timeout`, `error`).
+    #[serde(default = "default_retry_on")]
+    pub retry_on: Vec<Verdict>,
+}
+
+fn default_timeout() -> f64 {
+    120.0
+}
+fn default_grace() -> f64 {
+    5.0
+}
+fn default_attempts() -> u32 {
+    2
+}
+fn default_retry_on() -> Vec<Verdict> {
+    vec![Verdict::Timeout, Verdict::Error]
+}
+
+impl Default for Policy {
+    fn default() -> Self {
+        Self {
+            timeout_s: default_timeout(),
+            grace_s: default_grace(),
+            max_attempts: default_attempts(),
+            retry_on: default_retry_on(),
+        }
+    }
+}
+
+fn bad(message: impl Into<String>) -> Error {
+    Error::invalid("batch", message)
+}
+
+impl BatchSpec {
+    /// Parses and checks a batch file.
+    pub fn load(path: &Path) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let spec: BatchSpec = toml::from_str(&text)
+            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
+        spec.validate().map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
+        Ok(spec)
+    }
+
+    /// Checks every field; the error names it.
+    pub fn validate(&self) -> Result<(), Error> {
+        if self.trials == 0 || self.trials > MAX_TRIALS {
+            return Err(bad(format!("trials = {} must be in 1..={MAX_TRIALS}", self.trials)));
+        }
+        if self.runner != "sim" && self.runner != "rig" {
+            return Err(bad(format!("runner = {:?}: expected \"rig\" or \"sim\"", self.runner)));
+        }
+        if self.plans.is_empty() {
+            return Err(bad("plans must name at least one plan file"));
+        }
+        if !self.world.perturbation.iter().all(|v| v.is_finite() && *v >= 0.0) {
+            return Err(bad("world.perturbation must be three finite values ≥ 0"));
+        }
+        let c = &self.camera;
+        if !(0.0..=1.0).contains(&c.frame_drop) || !(0.0..=1.0).contains(&c.frame_black) {
+            return Err(bad("camera.frame_drop and camera.frame_black must be in [0, 1]"));
+        }
+        if c.max_frames == 0 || c.max_frames > 1000 {
+            return Err(bad("camera.max_frames must be in 1..=1000"));
+        }
+        if c.film_period_us.is_some_and(|p| !(1_000..=10_000_000).contains(&p)) {
+            return Err(bad(
+                "camera.film_period_us must be in 1000..=10000000 µs (1 kHz to 0.1 Hz)",
+            ));
+        }
+        let p = &self.policy;
+        let budget = |v: f64| v.is_finite() && v > 0.0 && v <= 86_400.0;
+        if !budget(p.timeout_s) || !budget(p.grace_s) {
+            return Err(bad("policy.timeout_s and policy.grace_s must be in (0, 86400] s"));
+        }
+        if p.max_attempts == 0 || p.max_attempts > 100 {
+            return Err(bad("policy.max_attempts must be in 1..=100"));
+        }
+        if p.retry_on.iter().any(|v| matches!(v, Verdict::Inserted)) {
+            return Err(bad("policy.retry_on cannot hold `inserted`"));
+        }
+        Ok(())
+    }
+
+    /// Loads the plans, resolved against the batch file's directory `base`.
+    pub fn load_plans(&self, base: &Path) -> Result<Vec<Plan>, Error> {
+        Ok(self.plans.iter().map(|p| Plan::load(&base.join(p))).collect::<Result<_, _>>()?)
+    }
+}
+
+/// SplitMix64: the seed mixer (trial seeds from the batch seed and index).
+pub fn mix(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The seed of trial `index` of a batch seeded `seed` (independent of sharding).
+pub fn trial_seed(seed: u64, index: u64) -> u64 {
+    mix(seed ^ mix(index))
+}
+
+/// The seed of attempt `attempt` of a trial.
+pub fn attempt_seed(trial_seed: u64, attempt: u32) -> u64 {
+    mix(trial_seed.wrapping_add(u64::from(attempt)))
+}
+
+/// `trial-000007`.
+pub fn trial_id(index: u64) -> String {
+    format!("trial-{index:06}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_field_is_named() {
+        let text = "seed = 1\ntrials = 3\nplans = [\"a.toml\"]\nbogus = 2\n";
+        let e = toml::from_str::<BatchSpec>(text).unwrap_err().to_string();
+        assert!(e.contains("bogus"), "{e}");
+    }
+
+    #[test]
+    fn retrying_a_success_is_refused() {
+        let text =
+            "seed = 1\ntrials = 3\nplans = [\"a.toml\"]\n[policy]\nretry_on = [\"inserted\"]\n";
+        let spec: BatchSpec = toml::from_str(text).unwrap();
+        assert!(spec.validate().unwrap_err().to_string().contains("retry_on"));
+    }
+}

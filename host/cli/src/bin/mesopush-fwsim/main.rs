@@ -1,0 +1,87 @@
+//! `mesopush-fwsim`: the firmware simulator as its own process, as on a rig. Serves the
+//! simulated motion controller on a pseudo-terminal (prints its path) and the 30 Hz camera on
+//! a Unix socket (prints its address) in real time, until the executor closes the line or the
+//! process is killed. Thin over `mesopush_rig::fwsim` (docs/hil.md).
+
+use anyhow::Context;
+use clap::Parser;
+use mesopush_executor::shell::rt::{RtOptions, apply};
+use mesopush_rig::WorldFile;
+use mesopush_rig::fwsim::{Fwsim, FwsimOptions};
+use mesopush_sim::Plan;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+/// The paper's Table II plan, embedded (its start places the peg and the probe).
+const TABLE2_TOML: &str = include_str!("../../../../../plans/table2.toml");
+
+/// Serve the simulated motion controller (pseudo-terminal) and camera (Unix socket) in real
+/// time for `mesopush-executor`.
+#[derive(Debug, Parser)]
+#[command(name = "mesopush-fwsim", version, about)]
+struct Args {
+    /// World file (default: worlds/default.toml, embedded).
+    #[arg(long)]
+    world: Option<PathBuf>,
+    /// Plan whose start pose the peg and probe are placed at (default: Table II, embedded).
+    #[arg(long)]
+    plan: Option<PathBuf>,
+    /// The one seed (camera noise, start perturbation, stage and camera faults).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Directory for camera.sock, background.png and fwsim-truth.csv.
+    #[arg(long, default_value = "runs/fwsim")]
+    run_dir: PathBuf,
+    /// Run the controller loop at this SCHED_FIFO priority (1..=99), as the controller's own
+    /// microcontroller would not be starved by a loaded host; the renderer and camera threads
+    /// keep the normal scheduler. Refused by the OS: a message, and it runs without.
+    #[arg(long, value_name = "N")]
+    rt_priority: Option<i32>,
+}
+
+fn main() -> std::process::ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    let world = match &args.world {
+        Some(p) => WorldFile::load(p)?,
+        None => WorldFile::default_world(),
+    };
+    let plan = match &args.plan {
+        Some(p) => Plan::load(p)?,
+        None => Plan::from_toml(TABLE2_TOML, Path::new("plans/table2.toml (embedded)"))?,
+    };
+    let opts = FwsimOptions { world, plan, seed: args.seed, run_dir: args.run_dir.clone() };
+    let sim = Fwsim::start(&opts).context("starting the firmware simulator")?;
+    let a = sim.addrs();
+    println!("controller: {}", a.controller);
+    println!("camera: unix:{}", a.camera.display());
+    println!("background: {}", a.background.display());
+    println!("truth: {}", a.truth.display());
+    println!("world: {}", a.world.display());
+    println!("fixture origin: {},{}", a.fixture_origin_um.x, a.fixture_origin_um.y);
+    // After start: the renderer and camera threads exist already and keep their scheduler.
+    let rt = RtOptions { fifo_priority: args.rt_priority, ..RtOptions::default() };
+    for r in apply(&rt).refused {
+        eprintln!("mesopush-fwsim: real-time set-up refused, continuing without: {r}");
+    }
+    println!("serving in real time until the executor closes the line (Ctrl-C to stop)");
+    let summary = sim.serve(&AtomicBool::new(false))?;
+    println!(
+        "line closed: {} frames ({} dropped, renderer behind; {} not sent), {} segments \
+         applied, {} physics advances jammed",
+        summary.frames,
+        summary.frames_render_dropped,
+        summary.frames_unsent,
+        summary.segments_applied,
+        summary.jams
+    );
+    Ok(())
+}

@@ -1,0 +1,212 @@
+//! `mesopush batch`: run (or resume) a trial batch from a batch file, shard it, merge shard
+//! outputs, and write its report. Thin over `mesopush_batch`.
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use mesopush_batch::stats::{Loaded, Summary, summarize};
+use mesopush_batch::{BatchConfig, BatchSpec, Progress, Session, merge, report, runner_factory};
+use mesopush_core::shard::Shard;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// Unattended trial batches: run, resume, shard, merge, report.
+#[derive(Debug, Args)]
+pub(crate) struct BatchArgs {
+    #[command(subcommand)]
+    command: BatchCommand,
+}
+
+#[derive(Debug, Subcommand)]
+enum BatchCommand {
+    /// Run a batch file; re-running the same command resumes where it stopped.
+    Run(RunArgs),
+    /// Write the report (Markdown + PNG figures, summary.json, trials.csv) of a batch dir.
+    Report(ReportArgs),
+    /// Combine shard directories into one batch directory (then `batch report` it).
+    Merge(MergeArgs),
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
+    /// Batch TOML (plans, trials, seed, world, camera, policy), e.g. batches/table2.toml.
+    batch: PathBuf,
+    /// Output directory (default: the batch file's `out`, else runs/batch-NAME).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Run only trials with index ≡ I mod N, into OUT/shard-I-of-N (e.g. 3/16).
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
+    /// Stop after this many trials in this session (run again to continue).
+    #[arg(long)]
+    max_trials: Option<u64>,
+    /// Print one JSON summary instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+struct ReportArgs {
+    /// Batch directory (a run's, a shard's or a merge's).
+    dir: PathBuf,
+    /// Where to write the report (default DIR/report).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+struct MergeArgs {
+    /// Shard (or batch) directories of the same batch.
+    #[arg(required = true)]
+    dirs: Vec<PathBuf>,
+    /// The merged batch directory (must not hold a batch yet).
+    #[arg(long)]
+    out: PathBuf,
+    /// Print the merged summary as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+pub(crate) fn run(args: &BatchArgs) -> Result<()> {
+    match &args.command {
+        BatchCommand::Run(a) => run_batch(a),
+        BatchCommand::Report(a) => run_report(a),
+        BatchCommand::Merge(a) => run_merge(a),
+    }
+}
+
+fn bar(json: bool) -> ProgressBar {
+    let pb = if json { ProgressBar::hidden() } else { ProgressBar::new(0) };
+    let style = ProgressStyle::with_template(
+        "{bar:40} {pos}/{len} trials [{elapsed_precise} < ETA {eta_precise}] {msg}",
+    )
+    .expect("valid template");
+    pb.set_style(style);
+    pb
+}
+
+fn run_batch(a: &RunArgs) -> Result<()> {
+    let spec = BatchSpec::load(&a.batch)?;
+    let base = a.batch.parent().unwrap_or(Path::new("."));
+    let plans = spec.load_plans(base).context("loading the batch's plans")?;
+    let shard = a.shard.as_deref().map(Shard::parse).transpose()?.unwrap_or(Shard::ALL);
+    let stem = a.batch.file_stem().map_or("batch".into(), |s| s.to_string_lossy().into_owned());
+    let mut out =
+        a.out.clone().or(spec.out.clone()).unwrap_or(PathBuf::from(format!("runs/batch-{stem}")));
+    if shard != Shard::ALL {
+        out = out.join(shard.dir_name());
+    }
+    let factory = runner_factory(&spec, base, plans[0].peg_start_pose().theta_rad)?;
+    let cfg = BatchConfig { spec, plans, out: out.clone(), shard, max_trials: a.max_trials };
+    let pb = bar(a.json);
+    let mut on_progress = |p: &Progress| {
+        pb.set_length(p.total);
+        if p.done == p.resumed {
+            pb.reset_eta();
+        }
+        pb.set_position(p.done);
+        let rate = if p.done > 0 { 100.0 * p.succeeded as f64 / p.done as f64 } else { 0.0 };
+        pb.set_message(format!("success {rate:.1} % ({}/{})", p.succeeded, p.done));
+    };
+    let session = mesopush_batch::run(&cfg, factory, &mut on_progress)?;
+    pb.finish_and_clear();
+    let s = summarize(&Loaded::load(&out)?);
+    print_run(&out, &s, &session, a.json);
+    if s.records_lost > 0 || s.duplicates > 0 {
+        bail!(
+            "data integrity: {} records lost, {} duplicated trials",
+            s.records_lost,
+            s.duplicates
+        );
+    }
+    Ok(())
+}
+
+fn print_run(out: &Path, s: &Summary, session: &Session, json: bool) {
+    let session_rate =
+        if session.elapsed_s > 0.0 { session.ran as f64 / session.elapsed_s } else { 0.0 };
+    if json {
+        let mut v = serde_json::to_value(s).expect("summary serialises");
+        v["dir"] = json!(out);
+        v["session"] = json!({"ran": session.ran, "resumed": session.resumed,
+            "discarded": session.discarded, "restarts": session.restarts,
+            "torn_journal_line_saved_to": session.torn_saved_to,
+            "elapsed_s": session.elapsed_s, "trials_per_s": session_rate});
+        println!("{v}");
+    } else {
+        println!(
+            "batch {}: {} of {} trials have a verdict ({} this session, {} resumed, {} interrupted attempts set aside)",
+            out.display(),
+            s.trials,
+            s.expected,
+            session.ran,
+            session.resumed,
+            session.discarded
+        );
+        println!(
+            "success: {} / {} = {:.1} % (95 % CI {:.1}–{:.1} %); missed {}, faulted {}, timeout {}, error {}",
+            s.succeeded,
+            s.trials,
+            100.0 * s.success_rate,
+            100.0 * s.success_ci95[0],
+            100.0 * s.success_ci95[1],
+            s.missed,
+            s.faulted,
+            s.timeouts,
+            s.errors
+        );
+        println!(
+            "faults injected {}, detected {}; records lost {}",
+            s.faults_injected, s.faults_detected, s.records_lost
+        );
+        println!("this session: {:.1} s, {session_rate:.2} trials/s", session.elapsed_s);
+        println!("report: mesopush batch report {}", out.display());
+    }
+}
+
+fn run_report(a: &ReportArgs) -> Result<()> {
+    let out = a.out.clone().unwrap_or_else(|| a.dir.join("report"));
+    let w = report::write(&a.dir, &out)?;
+    if a.json {
+        let mut v = serde_json::to_value(&w.summary)?;
+        v["markdown"] = json!(w.markdown);
+        v["figures"] = json!(w.figures);
+        println!("{v}");
+    } else {
+        let s = &w.summary;
+        println!(
+            "{} trials, success {:.1} % (95 % CI {:.1}–{:.1} %), records lost {}",
+            s.trials,
+            100.0 * s.success_rate,
+            100.0 * s.success_ci95[0],
+            100.0 * s.success_ci95[1],
+            s.records_lost
+        );
+        println!("report: {}", w.markdown.display());
+    }
+    Ok(())
+}
+
+fn run_merge(a: &MergeArgs) -> Result<()> {
+    let m = merge::merge(&a.dirs, &a.out)?;
+    let s = summarize(&Loaded::load(&a.out)?);
+    if a.json {
+        let mut v = serde_json::to_value(&s)?;
+        v["inputs"] = json!(m.inputs);
+        println!("{v}");
+    } else {
+        println!(
+            "merged {} directories: {} of {} trials ({} missing) into {}",
+            m.inputs,
+            s.trials,
+            s.expected,
+            s.missing,
+            a.out.display()
+        );
+        println!("report: mesopush batch report {}", a.out.display());
+    }
+    Ok(())
+}

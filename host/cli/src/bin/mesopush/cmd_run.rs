@@ -1,0 +1,115 @@
+//! `mesopush run --port P`: arms and starts the plan flashed into a running
+//! `mesopush-executor`, follows the trial to its end, then completes the executor's
+//! recording into a trial log (trial.json, probe.csv, pose.csv) and prints the verdict.
+//! Thin over `mesopush_rig::hil::run`.
+
+use anyhow::Context;
+use clap::Args;
+use mesopush_core::geom::Vec2;
+use mesopush_executor::ExecutorConfig;
+use mesopush_rig::WorldFile;
+use mesopush_rig::hil::{self, RunOptions, RunReport};
+use mesopush_sim::Plan;
+use std::path::{Path, PathBuf};
+
+/// The paper's Table II plan, embedded.
+const TABLE2_TOML: &str = include_str!("../../../../../plans/table2.toml");
+
+/// Arm, start and record the flashed plan on a running executor; print the verdict.
+#[derive(Debug, Args)]
+pub(crate) struct RunArgs {
+    /// The executor's host line: `unix:PATH` or a serial device.
+    #[arg(long)]
+    port: String,
+    /// The plan that was flashed (default: Table II, embedded).
+    #[arg(long)]
+    plan: Option<PathBuf>,
+    /// The executor's `--record-dir`.
+    #[arg(long, default_value = "runs/executor")]
+    record_dir: PathBuf,
+    /// Trial directory to write (default: complete the recording where the executor wrote it).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// The empty fixture's frame to track against (mesopush-fwsim prints its own).
+    #[arg(long, default_value = "runs/fwsim/background.png")]
+    background: PathBuf,
+    /// Camera calibration and stage registration: a world file's `[camera]` and `[stage]` (its
+    /// effects and faults are never read). Default: worlds/default.toml, embedded.
+    #[arg(long)]
+    world: Option<PathBuf>,
+    /// The executor's --setpoint-rate-hz (rebuilds the setpoint schedule for probe.csv).
+    #[arg(long, default_value_t = 100)]
+    setpoint_rate_hz: u32,
+    /// The firmware simulator's fwsim-truth.csv: report frame-stamp and tracking errors.
+    #[arg(long)]
+    truth: Option<PathBuf>,
+    /// The firmware simulator's fwsim-world.json: record the simulated world (its
+    /// description and seed) in trial.json's `world` (mesopush-fwsim prints the path).
+    #[arg(long)]
+    sim_world: Option<PathBuf>,
+    /// Print a JSON summary.
+    #[arg(long)]
+    json: bool,
+}
+
+pub(crate) fn run(args: &RunArgs) -> anyhow::Result<()> {
+    let plan = match &args.plan {
+        Some(p) => Plan::load(p)?,
+        None => Plan::from_toml(TABLE2_TOML, Path::new("plans/table2.toml (embedded)"))?,
+    };
+    let world = match &args.world {
+        Some(p) => WorldFile::load(p)?,
+        None => WorldFile::default_world(),
+    };
+    let config =
+        ExecutorConfig { setpoint_rate_hz: args.setpoint_rate_hz, ..ExecutorConfig::DEFAULT };
+    anyhow::ensure!(
+        (1..=1000).contains(&args.setpoint_rate_hz),
+        "--setpoint-rate-hz must be in 1..=1000, got {}",
+        args.setpoint_rate_hz
+    );
+    let [ox, oy] = world.spec.stage.offset_um;
+    let opts = RunOptions {
+        addr: args.port.clone(),
+        plan,
+        record_dir: args.record_dir.clone(),
+        out: args.out.clone(),
+        background: args.background.clone(),
+        calibration: world.spec.camera.calibration()?,
+        fixture_origin_um: Vec2::new(ox, oy),
+        frame_period_us: world.spec.camera.period_us,
+        period_us: config.setpoint_period_us(),
+        lead_us: config.start_lead_us,
+        truth: args.truth.clone(),
+        sim_world: args.sim_world.clone(),
+    };
+    let report = hil::run(&opts).with_context(|| format!("running the trial on {}", args.port))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_summary(&report);
+    }
+    Ok(())
+}
+
+fn print_summary(r: &RunReport) {
+    let t = &r.trial;
+    crate::verdict::print_head(t.state, None, t.inserted, t.reason.as_deref(), t.final_pose);
+    println!(
+        "  frames {} (dropped {}), {} tracked; {} position reports; {:.1} s",
+        t.frames, t.dropped_frames, t.tracked, r.telemetry, r.wall_time_s
+    );
+    if let Some(f) = &r.truth {
+        println!(
+            "  vs the simulator's truth over {} frames: stamp error median {} µs, max |{}| µs; \
+             arrival − exposure median {} µs, max {} µs; tracking error max {:.2} µm",
+            f.frames_compared,
+            f.stamp_error_us_p50,
+            f.stamp_error_us_max_abs,
+            f.arrival_latency_us_p50,
+            f.arrival_latency_us_max,
+            f.track_error_um_max
+        );
+    }
+    println!("  trial directory: {}", t.trial_dir.display());
+}

@@ -1,0 +1,176 @@
+//! `mesopush sim`: replay a plan in the quasi-static simulator, write the trajectory CSV and
+//! the Fig. 6-style figure, print the verdict (or `--json`), or time it (`--bench`).
+
+use anyhow::{Context, Result};
+use clap::Args;
+use mesopush_core::geom::Vec2;
+use mesopush_plot::{PlanFigure, draw_plan};
+use mesopush_sim::{
+    Fixture, Model, Plan, Replay, SimSettings, SimState, Simulator, replay, trajectory,
+};
+use serde_json::json;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Replay a pushing plan in the quasi-static simulator.
+#[derive(Debug, Args)]
+pub(crate) struct SimArgs {
+    /// Plan TOML (start pose, probe start, moves Δu_i, speed), e.g. plans/table2.toml.
+    #[arg(long)]
+    plan: PathBuf,
+    /// Model TOML (part, supports, friction); default: the nominal model.
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Fixture TOML (walls, goal); default: the reconstructed paper fixture.
+    #[arg(long)]
+    fixture: Option<PathBuf>,
+    /// Output directory for trajectory.csv, fig6.png and fig6.svg.
+    #[arg(long, default_value = "runs/sim")]
+    out: PathBuf,
+    /// Probe travel per step, µm.
+    #[arg(long, default_value_t = SimSettings::default().step_um)]
+    step_um: f64,
+    /// Friction directions per support.
+    #[arg(long, default_value_t = SimSettings::default().n_directions)]
+    n_directions: usize,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+    /// Time the replay and its steps over this many runs instead of writing outputs.
+    #[arg(long, value_name = "RUNS", num_args = 0..=1, default_missing_value = "30")]
+    bench: Option<usize>,
+}
+
+pub(crate) fn run(args: &SimArgs) -> Result<()> {
+    let plan = Plan::load(&args.plan)?;
+    let model = match &args.model {
+        Some(p) => Model::load(p)?,
+        None => Model::default(),
+    };
+    let fixture = match &args.fixture {
+        Some(p) => Fixture::load(p)?,
+        None => Fixture::paper(),
+    };
+    let settings = SimSettings {
+        step_um: args.step_um,
+        n_directions: args.n_directions,
+        ..Default::default()
+    };
+    let mut sim = Simulator::new(model, fixture, settings)?;
+    if let Some(runs) = args.bench {
+        return bench(&mut sim, &plan, runs.max(1), args.json);
+    }
+    let result = replay(&mut sim, &plan, None)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let csv = args.out.join("trajectory.csv");
+    trajectory::save_csv(&result, &csv)?;
+    let figs = [args.out.join("fig6.png"), args.out.join("fig6.svg")];
+    for f in &figs {
+        figure(&sim, &plan, &result, f)?;
+    }
+    print_result(&result, &csv, &figs, args.json);
+    Ok(())
+}
+
+fn figure(sim: &Simulator, plan: &Plan, r: &Replay, path: &std::path::Path) -> Result<()> {
+    let poses: Vec<_> = r.samples.iter().map(|s| s.peg).collect();
+    let probe: Vec<_> = r.samples.iter().map(|s| s.probe_um).collect();
+    let title = format!("{} — {}", plan.name, if r.inserted { "inserted" } else { "NOT inserted" });
+    let fig = PlanFigure {
+        title: &title,
+        walls: &sim.fixture().walls,
+        goal: Some(&sim.fixture().goal),
+        part: sim.model().part.polygon(),
+        poses: &poses,
+        probe_um: &probe,
+        max_outlines: 25,
+    };
+    Ok(draw_plan(&fig, path)?)
+}
+
+fn print_result(r: &Replay, csv: &std::path::Path, figs: &[PathBuf], as_json: bool) {
+    let p = r.final_pose;
+    if as_json {
+        let v = json!({
+            "inserted": r.inserted,
+            "final_pose": {"x_um": p.x_um, "y_um": p.y_um, "theta_rad": p.theta_rad},
+            "steps": r.steps,
+            "lcp_solves": r.lcp_solves,
+            "max_penetration_um": r.max_penetration_um,
+            "max_probe_deflection_um": r.max_probe_deflection_um,
+            "events": r.events,
+            "trajectory_csv": csv,
+            "figures": figs,
+        });
+        println!("{v}");
+        return;
+    }
+    println!("inserted: {}", if r.inserted { "yes" } else { "NO" });
+    println!(
+        "final pose: x = {:.1} µm, y = {:.1} µm, θ = {:.2}°",
+        p.x_um,
+        p.y_um,
+        p.theta_rad.to_degrees()
+    );
+    println!(
+        "steps: {} ({} LCP solves), max wall penetration {:.3} µm, max needle deflection {:.2} µm",
+        r.steps, r.lcp_solves, r.max_penetration_um, r.max_probe_deflection_um
+    );
+    for e in &r.events {
+        println!("event at t = {:.2} s (move {}): {}", e.t_s, e.move_index + 1, e.what);
+    }
+    println!("trajectory: {}", csv.display());
+    for f in figs {
+        println!("figure: {}", f.display());
+    }
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn bench(sim: &mut Simulator, plan: &Plan, runs: usize, as_json: bool) -> Result<()> {
+    let mut replay_ms = Vec::with_capacity(runs);
+    let mut last = None;
+    for _ in 0..runs {
+        let t0 = Instant::now();
+        let r = replay(sim, plan, None)?;
+        replay_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        last = Some(r);
+    }
+    let r = last.context("no run")?;
+    // Re-time every LCP step of the replay from its recorded start state.
+    let mut step_us = Vec::new();
+    for w in r.samples.windows(2) {
+        if !w[1].solved_lcp {
+            continue;
+        }
+        let start = SimState { peg: w[0].peg, probe_um: Vec2::from(w[0].probe_um) };
+        let delta = Vec2::from(w[1].probe_um) - start.probe_um;
+        let reps = 20;
+        let t0 = Instant::now();
+        for _ in 0..reps {
+            let mut s = start;
+            sim.step(&mut s, delta)?;
+        }
+        step_us.push(t0.elapsed().as_secs_f64() * 1e6 / reps as f64);
+    }
+    let (rm, sm) = (median(&mut replay_ms), median(&mut step_us));
+    if as_json {
+        let v = json!({"replay_ms_median": rm, "step_us_median": sm, "runs": runs,
+                        "lcp_steps": step_us.len(), "steps": r.steps,
+                        "step_us_mean_in_replay": rm * 1e3 / r.steps.max(1) as f64});
+        println!("{v}");
+    } else {
+        println!("replay: {rm:.3} ms median over {runs} runs ({} steps)", r.steps);
+        println!(
+            "step:   {sm:.2} µs median over {} LCP steps re-timed in place (warm start); \
+             {:.2} µs per step on average inside a replay",
+            step_us.len(),
+            rm * 1e3 / r.steps.max(1) as f64
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,132 @@
+//! The RRT planner: it finds plans that replay to an insertion, keeps the probe out of the
+//! walls and inside the executor's workspace, and is deterministic for a seed.
+
+use mesopush_plan::clearance::{first_wall_violation, in_workspace, max_speed_um_s};
+use mesopush_plan::{RrtSettings, plan_is_feasible, plan_rrt};
+use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
+use rand::SeedableRng;
+use std::path::Path;
+
+fn sim() -> Simulator {
+    Simulator::new(Model::default(), Fixture::paper(), SimSettings::default()).unwrap()
+}
+
+/// Seed 2 finds a plan in a few dozen iterations with the default settings.
+const SEED: u64 = 2;
+
+fn plan(seed: u64, max_iterations: usize) -> (mesopush_plan::RrtResult, Simulator) {
+    plan_with(seed, RrtSettings { max_iterations, ..Default::default() })
+}
+
+fn plan_with(seed: u64, settings: RrtSettings) -> (mesopush_plan::RrtResult, Simulator) {
+    let mut s = sim();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let start = Plan::table2().peg_start_pose();
+    let r = plan_rrt(&mut s, start, &settings, &mut rng, &mut |_| true).unwrap();
+    (r, s)
+}
+
+#[test]
+fn rrt_plan_inserts_the_peg_and_keeps_the_probe_out_of_the_walls() {
+    let (r, mut s) = plan(SEED, 300);
+    let plan =
+        r.plan.unwrap_or_else(|| panic!("seed {SEED}: no plan in {} iterations", r.iterations));
+    assert!(r.pushes >= 2 && r.pushes <= plan.moves_um.len(), "{} pushes", r.pushes);
+    let rep = replay(&mut s, &plan, None).unwrap();
+    assert!(rep.inserted, "seed {SEED}: final pose {:?}", rep.final_pose);
+    assert!(rep.events.is_empty(), "seed {SEED}: {:?}", rep.events);
+    let walls = &s.fixture().walls;
+    assert_eq!(first_wall_violation(plan.probe_start(), &plan.moves_um, walls, 12.5), None);
+    assert!(plan.speed_um_s <= max_speed_um_s());
+    let mut p = plan.probe_start();
+    for m in &plan.moves_um {
+        p += mesopush_core::geom::Vec2::new(m[0], m[1]);
+        assert!(in_workspace(&p), "probe leaves the workspace at {p:?}");
+    }
+    assert!(plan_is_feasible(&mut s, &plan).unwrap());
+    // What `plan --out` writes is what `sim` and the executor load.
+    let back = Plan::from_toml(&plan.to_toml(), Path::new("rrt.toml")).unwrap();
+    assert_eq!(back, plan);
+}
+
+#[test]
+fn same_seed_same_plan() {
+    let (a, _) = plan(SEED, 300);
+    let (b, _) = plan(SEED, 300);
+    assert_eq!(a, b, "seed {SEED}");
+}
+
+#[test]
+fn shortcutting_never_adds_pushes_and_the_shortcut_plan_still_inserts() {
+    let (mut before, mut after) = (0, 0);
+    for seed in [SEED, 4, 6] {
+        let settings = RrtSettings { max_iterations: 2000, ..Default::default() };
+        let raw = RrtSettings { shortcut_attempts: 0, ..settings.clone() };
+        let (r0, _) = plan_with(seed, raw);
+        let (r, mut s) = plan_with(seed, settings);
+        let plan = r.plan.unwrap_or_else(|| panic!("seed {seed}: no plan"));
+        // The search is the same; only the found branch is shortened.
+        assert_eq!(r0.pushes, r0.pushes_before_shortcut, "seed {seed}");
+        assert_eq!(r.pushes_before_shortcut, r0.pushes, "seed {seed}");
+        assert!(r.pushes <= r.pushes_before_shortcut, "seed {seed}: {} pushes", r.pushes);
+        assert!(r.shortcut_attempts > 0, "seed {seed}");
+        let rep = replay(&mut s, &plan, None).unwrap();
+        assert!(rep.inserted && rep.events.is_empty(), "seed {seed}: {:?}", rep.final_pose);
+        assert!(plan_is_feasible(&mut s, &plan).unwrap(), "seed {seed}");
+        (before, after) = (before + r.pushes_before_shortcut, after + r.pushes);
+    }
+    // A pass that never shortens anything would be dead weight.
+    assert!(after < before, "{after} pushes after shortcutting, {before} before");
+}
+
+#[test]
+fn no_iterations_no_plan_and_a_table2_cut_short_is_not_feasible() {
+    let (r, mut s) = plan(SEED, 0);
+    assert!(r.plan.is_none() && r.iterations == 0 && r.pushes == 0);
+    let mut short = Plan::table2();
+    short.moves_um.truncate(2);
+    assert!(!plan_is_feasible(&mut s, &short).unwrap());
+    assert!(plan_is_feasible(&mut s, &Plan::table2()).unwrap());
+}
+
+#[test]
+fn plan_cli_prints_the_json_summary_and_writes_a_loadable_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plan.toml");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
+        .args(["plan", "--seed", &SEED.to_string(), "--json", "--max-iterations", "300", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["found"], true, "{v}");
+    for k in ["pushes", "pushes_before_shortcut", "iterations", "planning_ms", "tree_size"] {
+        assert!(v[k].is_number(), "{k} missing: {v}");
+    }
+    Plan::load(&out).unwrap();
+}
+
+#[test]
+fn robust_plan_cli_reports_the_fresh_check_and_the_design_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("robust.toml");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
+        .args(["plan", "--robust", "--seed", "3", "--json", "--generations", "1"])
+        .args(["--train-samples", "4", "--validation-samples", "4", "--check-samples", "6"])
+        .args(["--check-seed", "99", "--rounds", "2", "--accept-rate", "1.01", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((v["samples"].as_u64(), v["check_seed"].as_u64()), (Some(6), Some(99)), "{v}");
+    for k in
+        ["success_rate", "ci_low", "ci_high", "training_rate", "validation_rate", "planning_ms"]
+    {
+        assert!(v[k].is_number(), "{k} missing: {v}");
+    }
+    assert_eq!((v["generations"].as_u64(), v["rounds"].as_u64()), (Some(2), Some(2)), "{v}");
+    assert_eq!(v["validation_samples"], 4, "{v}");
+    Plan::load(&out).unwrap().validate().unwrap();
+}

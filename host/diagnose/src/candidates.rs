@@ -1,0 +1,215 @@
+//! The candidates attribution tries: the nominal parameters alone, and the nominal ones
+//! together with one library effect. Each candidate is a parameter vector with bounds, a
+//! coarse grid to start the search from (some effects, like a pull-off force, change the
+//! fit in steps, which a simplex alone cannot climb), and a map onto a [`Model`].
+
+use mesopush_sim::Model;
+use mesopush_sim::effects::{Adhesion, FrictionPatch, SpeedFriction, SupportDrift};
+use serde::Serialize;
+
+/// A library effect (or none: the nominal model).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Candidate {
+    /// Nominal parameters only.
+    Nominal,
+    /// Stage backlash per axis.
+    Backlash,
+    /// Camera timestamp latency.
+    Latency,
+    /// Image scale / aspect error.
+    Scale,
+    /// Probe compliance.
+    Compliance,
+    /// Probe–peg adhesion.
+    Adhesion,
+    /// A friction patch on the plate.
+    FrictionPatch,
+    /// Speed-dependent friction.
+    SpeedFriction,
+    /// Support drift over the batch.
+    SupportDrift,
+}
+
+/// One fitted parameter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Param {
+    /// Name with unit.
+    pub name: &'static str,
+    /// Lower bound.
+    pub lo: f64,
+    /// Upper bound.
+    pub hi: f64,
+    /// Typical step (simplex size).
+    pub step: f64,
+    /// Start values tried before the simplex (the best one wins).
+    pub grid: &'static [f64],
+}
+
+const fn p(name: &'static str, lo: f64, hi: f64, step: f64, grid: &'static [f64]) -> Param {
+    Param { name, lo, hi, step, grid }
+}
+
+/// Nominal parameters: μ_probe, one surface μ, and a shift of the support triangle.
+pub const NOMINAL: [Param; 4] = [
+    p("mu_probe", 0.05, 1.5, 0.1, &[]),
+    p("mu_surface", 0.05, 1.2, 0.05, &[]),
+    p("support_dx_um", -400.0, 400.0, 40.0, &[]),
+    p("support_dy_um", -400.0, 400.0, 40.0, &[]),
+];
+
+impl Candidate {
+    /// Every effect candidate (the nominal one excluded).
+    pub const EFFECTS: [Candidate; 8] = [
+        Candidate::Backlash,
+        Candidate::Latency,
+        Candidate::Scale,
+        Candidate::Compliance,
+        Candidate::Adhesion,
+        Candidate::FrictionPatch,
+        Candidate::SpeedFriction,
+        Candidate::SupportDrift,
+    ];
+
+    /// Library name (as in `--json` and the docs).
+    pub fn name(self) -> &'static str {
+        match self {
+            Candidate::Nominal => "nominal",
+            Candidate::Backlash => "backlash",
+            Candidate::Latency => "camera_latency",
+            Candidate::Scale => "scale_error",
+            Candidate::Compliance => "probe_compliance",
+            Candidate::Adhesion => "adhesion",
+            Candidate::FrictionPatch => "friction_patch",
+            Candidate::SpeedFriction => "speed_friction",
+            Candidate::SupportDrift => "support_drift",
+        }
+    }
+
+    /// The effect's own parameters (after the nominal ones in the vector).
+    pub fn effect_params(self) -> &'static [Param] {
+        const G_B: &[f64] = &[4.0, 12.0, 25.0];
+        match self {
+            Candidate::Nominal => &[],
+            Candidate::Backlash => {
+                const P: [Param; 2] = [
+                    p("backlash_x_um", 0.0, 80.0, 3.0, G_B),
+                    p("backlash_y_um", 0.0, 80.0, 3.0, G_B),
+                ];
+                &P
+            }
+            Candidate::Latency => {
+                const P: [Param; 1] =
+                    [p("camera_latency_us", -100e3, 300e3, 10e3, &[-30e3, 30e3, 70e3, 120e3])];
+                &P
+            }
+            Candidate::Scale => {
+                const G: &[f64] = &[-0.02, 0.0, 0.02];
+                const P: [Param; 2] = [
+                    p("scale_error_x", -0.1, 0.1, 0.005, G),
+                    p("scale_error_y", -0.1, 0.1, 0.005, G),
+                ];
+                &P
+            }
+            Candidate::Compliance => {
+                const P: [Param; 1] =
+                    [p("probe_compliance_um_per_weight", 0.0, 300.0, 5.0, &[5.0, 20.0, 60.0])];
+                &P
+            }
+            Candidate::Adhesion => {
+                const P: [Param; 1] =
+                    [p("pull_off_weight", 0.0, 3.0, 0.05, &[0.05, 0.15, 0.3, 0.5, 0.8, 1.5])];
+                &P
+            }
+            Candidate::FrictionPatch => {
+                const P: [Param; 5] = [
+                    p("patch_mu_surface", 0.0, 2.0, 0.1, &[0.1, 0.6, 1.0]),
+                    p("patch_min_x_um", -5e3, 10e3, 200.0, &[]),
+                    p("patch_min_y_um", -5e3, 10e3, 200.0, &[]),
+                    p("patch_max_x_um", -5e3, 10e3, 200.0, &[]),
+                    p("patch_max_y_um", -5e3, 10e3, 200.0, &[]),
+                ];
+                &P
+            }
+            Candidate::SpeedFriction => {
+                const P: [Param; 1] = [p("gain_per_mm_s", -3.0, 10.0, 0.2, &[-0.5, 1.0, 2.0, 3.5])];
+                &P
+            }
+            Candidate::SupportDrift => {
+                const G: &[f64] = &[-12.0, 0.0, 12.0];
+                const P: [Param; 2] = [
+                    p("drift_x_um_per_trial", -100.0, 100.0, 3.0, G),
+                    p("drift_y_um_per_trial", -100.0, 100.0, 3.0, G),
+                ];
+                &P
+            }
+        }
+    }
+
+    /// All parameters: the nominal ones, then the effect's.
+    pub fn params(self) -> Vec<Param> {
+        NOMINAL.iter().chain(self.effect_params()).copied().collect()
+    }
+
+    /// The model for parameter vector `v` (as laid out by [`Candidate::params`]), built on
+    /// `base` (whose support the shift moves).
+    pub fn apply(self, base: &Model, v: &[f64]) -> Model {
+        let mut m = base.clone();
+        m.mu_probe = v[0];
+        m.support.mu_surface = [v[1]; 3];
+        for pt in &mut m.support.points_um {
+            pt[0] += v[2];
+            pt[1] += v[3];
+        }
+        let e = &v[NOMINAL.len()..];
+        let fx = &mut m.effects;
+        match self {
+            Candidate::Nominal => {}
+            Candidate::Backlash => fx.backlash_um = [e[0], e[1]],
+            Candidate::Latency => fx.camera_latency_us = e[0],
+            Candidate::Scale => fx.scale_error = [e[0], e[1]],
+            Candidate::Compliance => fx.probe_compliance_um_per_weight = Some(e[0]),
+            Candidate::Adhesion => {
+                fx.adhesion = Some(Adhesion { pull_off_weight: e[0], range_um: 2.0 })
+            }
+            Candidate::FrictionPatch => {
+                fx.friction_patch = Some(FrictionPatch {
+                    mu_surface: e[0],
+                    min_um: [e[1].min(e[3]), e[2].min(e[4])],
+                    max_um: [e[1].max(e[3]), e[2].max(e[4])],
+                })
+            }
+            Candidate::SpeedFriction => {
+                fx.speed_friction = Some(SpeedFriction { gain_per_mm_s: e[0] })
+            }
+            Candidate::SupportDrift => {
+                fx.support_drift = Some(SupportDrift {
+                    points_um_per_trial: [e[0], e[1]],
+                    mu_surface_per_trial: 0.0,
+                })
+            }
+        }
+        m
+    }
+
+    /// The physical signature that points at this effect (for the report).
+    pub fn signature(self) -> &'static str {
+        match self {
+            Candidate::Nominal => "",
+            Candidate::Backlash => {
+                "residual steps after probe direction reversals, signed by the new direction; \
+                 imaged tip lags the command by a constant after each reversal"
+            }
+            Candidate::Latency => {
+                "residual proportional to velocity (peg and imaged tip lag the model by a \
+                 constant time)"
+            }
+            Candidate::Scale => "residual proportional to the distance from the image origin",
+            Candidate::Compliance => "imaged tip behind the command in proportion to contact force",
+            Candidate::Adhesion => "peg moves while the probe retracts (after contact release)",
+            Candidate::FrictionPatch => "residual grows in one region of the plate",
+            Candidate::SpeedFriction => "residual correlates with probe speed",
+            Candidate::SupportDrift => "residual trends with the trial's place in the batch",
+        }
+    }
+}

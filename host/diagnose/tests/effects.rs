@@ -1,0 +1,57 @@
+//! The simulator's physical effects: off changes nothing, adhesion drags a peg the probe
+//! retracts from, a high-friction patch under the peg changes how it moves.
+
+use mesopush_core::geom::{Pose, Vec2};
+use mesopush_diagnose::data::open_plate;
+use mesopush_sim::effects::{Adhesion, FrictionPatch};
+use mesopush_sim::{Model, ProbePoint, SimSettings, Simulator, follow_path};
+
+/// Push the peg's short side by 200 µm along +x, then retract 200 µm.
+fn push_and_retract(model: Model) -> (Pose, Pose) {
+    let start = Pose::new(2000.0, 1200.0, 0.0);
+    let x0 = 2000.0 - 807.5 - 12.5 - 50.0;
+    let pts = [x0, x0 + 250.0, x0 + 50.0];
+    let mut path = vec![];
+    let mut t = 0.0;
+    for w in pts.windows(2) {
+        for k in 0..=100 {
+            let x = w[0] + (w[1] - w[0]) * k as f64 / 100.0;
+            path.push(ProbePoint { t_s: t, probe_um: Vec2::new(x, 1200.0 + 100.0) });
+            t += 0.01;
+        }
+    }
+    let mut sim = Simulator::new(model, open_plate(), SimSettings::default()).unwrap();
+    let rep = follow_path(&mut sim, start, &path).unwrap();
+    (rep.samples[100].peg, rep.samples.last().unwrap().peg)
+}
+
+#[test]
+fn effects_off_is_the_nominal_model() {
+    let a = push_and_retract(Model::default());
+    let mut m = Model::default();
+    m.effects.adhesion = Some(Adhesion { pull_off_weight: 0.0, range_um: 2.0 });
+    let b = push_and_retract(m);
+    assert_eq!(a.1, push_and_retract(Model::default()).1);
+    assert!((a.1.x_um - b.1.x_um).abs() < 1e-6, "zero pull-off drags nothing");
+    let (pushed, end) = a;
+    assert_eq!(pushed, end, "without adhesion a retracting probe leaves the peg");
+}
+
+#[test]
+fn adhesion_drags_the_peg_back_on_retract() {
+    let mut m = Model::default();
+    m.effects.adhesion = Some(Adhesion { pull_off_weight: 1.5, range_um: 2.0 });
+    let (pushed, end) = push_and_retract(m);
+    assert!(pushed.x_um - end.x_um > 10.0, "pushed {pushed:?}, after retract {end:?}");
+}
+
+#[test]
+fn a_sticky_patch_under_the_peg_changes_its_motion() {
+    let mut m = Model::default();
+    let (a, _) = push_and_retract(m.clone());
+    m.effects.friction_patch =
+        Some(FrictionPatch { min_um: [1900.0, 0.0], max_um: [5000.0, 5000.0], mu_surface: 1.2 });
+    let (b, _) = push_and_retract(m);
+    let d = (a.x_um - b.x_um).hypot(a.y_um - b.y_um) + 800.0 * (a.theta_rad - b.theta_rad).abs();
+    assert!(d > 1.0, "patch made no difference: {a:?} vs {b:?}");
+}

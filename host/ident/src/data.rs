@@ -1,0 +1,167 @@
+//! A trial log turned into what identification needs: the part, the probe radius, the
+//! fixture (an open plate when the trial had none), the commanded probe path from the first
+//! tracked pose on, and the tracked poses to score against. Only the trial-log format is read
+//! (`docs/trial-log.md`); nothing here knows who produced the log.
+
+use crate::Error;
+use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
+use mesopush_sim::{Fixture, Part, ProbePoint};
+use mesopush_trial::{PoseRow, Trial};
+
+/// One trial, ready to be simulated and scored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdentTrial {
+    /// The trial's id (from `trial.json`).
+    pub id: String,
+    /// The pushed part.
+    pub part: Part,
+    /// Probe tip radius, µm.
+    pub probe_radius_um: f64,
+    /// Walls the peg may touch (none for unconstrained pushing).
+    pub fixture: Fixture,
+    /// Where the simulation starts: the tracked pose at rest before the probe touches (the
+    /// mean of the poses tracked before contact; the first pose when it touches at once).
+    pub start: Pose,
+    /// The commanded probe path from the first tracked pose's time on (its first point is
+    /// the probe interpolated at that time).
+    pub path: Vec<ProbePoint>,
+    /// Tracked poses after the first, as (time s, pose), within the path's time span.
+    pub measured: Vec<(f64, Pose)>,
+}
+
+/// A fixture with no walls (open plate); its goal is a token square far away, never reached.
+pub fn open_plate() -> Fixture {
+    let (far, side) = (1.0e6, 1000.0);
+    let goal = ConvexPolygon::new(vec![
+        Vec2::new(far, far),
+        Vec2::new(far + side, far),
+        Vec2::new(far + side, far + side),
+        Vec2::new(far, far + side),
+    ])
+    .expect("constant square");
+    Fixture { walls: Vec::new(), goal, insert_depth_um: 0.0 }
+}
+
+/// The probe position on `path` at `t_s` (linear between waypoints, clamped at the ends).
+pub fn probe_at(path: &[ProbePoint], t_s: f64) -> Vec2 {
+    let i = path.partition_point(|p| p.t_s <= t_s);
+    if i == 0 {
+        return path[0].probe_um;
+    }
+    if i == path.len() {
+        return path[i - 1].probe_um;
+    }
+    let (a, b) = (&path[i - 1], &path[i]);
+    let dt = b.t_s - a.t_s;
+    let f = if dt > 0.0 { (t_s - a.t_s) / dt } else { 1.0 };
+    a.probe_um + (b.probe_um - a.probe_um) * f
+}
+
+/// Distance the probe must keep from the peg for a tracked pose to count as at rest, µm.
+const REST_GAP_UM: f64 = 5.0;
+
+/// The peg's start pose: the mean of the tracked poses before the probe first comes within
+/// [`REST_GAP_UM`] of the peg (the peg cannot move before it is touched), so tracking noise
+/// on the first frame does not bias every later prediction. Geometry only, no model.
+fn resting_pose(part: &Part, probe_radius_um: f64, poses: &[PoseRow], path: &[ProbePoint]) -> Pose {
+    let first = Pose::new(poses[0].x_um, poses[0].y_um, poses[0].theta_rad);
+    let peg = part.polygon().transformed(&first);
+    let (mut sum, mut n) = ([0.0; 3], 0usize);
+    for p in poses {
+        let probe = probe_at(path, p.t_us as f64 * 1e-6);
+        if n > 0 && peg.signed_distance(&probe) - probe_radius_um < REST_GAP_UM {
+            break;
+        }
+        sum = [sum[0] + p.x_um, sum[1] + p.y_um, sum[2] + p.theta_rad];
+        n += 1;
+    }
+    let n = n as f64;
+    Pose::new(sum[0] / n, sum[1] / n, sum[2] / n)
+}
+
+impl IdentTrial {
+    /// Prepares a loaded trial; errors name the trial directory and what is missing.
+    pub fn from_trial(trial: &Trial) -> Result<Self, Error> {
+        let name = trial.dir.display().to_string();
+        let poses = trial.poses()?;
+        let path = trial.commanded_path();
+        if path.len() < 2 {
+            return Err(Error::invalid(
+                "trial",
+                format!("{name}: probe.csv has {} rows; at least 2 are needed", path.len()),
+            ));
+        }
+        for (i, p) in poses.iter().enumerate() {
+            if !(p.x_um.is_finite() && p.y_um.is_finite() && p.theta_rad.is_finite()) {
+                return Err(Error::invalid(
+                    "trial",
+                    format!("{name}: pose.csv row {} is not finite", i + 1),
+                ));
+            }
+        }
+        let first = poses[0];
+        let t0_s = first.t_us as f64 * 1e-6;
+        let t_end_s = path[path.len() - 1].t_s;
+        if t0_s >= t_end_s {
+            return Err(Error::invalid(
+                "trial",
+                format!("{name}: the first tracked pose is after the probe path's end"),
+            ));
+        }
+        let mut trimmed = vec![ProbePoint { t_s: t0_s, probe_um: probe_at(&path, t0_s) }];
+        trimmed.extend(path.iter().filter(|p| p.t_s > t0_s).copied());
+        let measured: Vec<(f64, Pose)> = poses[1..]
+            .iter()
+            .map(|p| (p.t_us as f64 * 1e-6, Pose::new(p.x_um, p.y_um, p.theta_rad)))
+            .filter(|(t, _)| *t <= t_end_s)
+            .collect();
+        if measured.is_empty() {
+            return Err(Error::invalid(
+                "trial",
+                format!("{name}: no tracked pose after the first lies within the probe path"),
+            ));
+        }
+        let part = trial.meta.part.clone();
+        let start = resting_pose(&part, trial.meta.probe_radius_um, poses, &path);
+        Ok(Self {
+            id: trial.meta.trial_id.clone(),
+            part,
+            probe_radius_um: trial.meta.probe_radius_um,
+            fixture: trial.meta.fixture.clone().unwrap_or_else(open_plate),
+            start,
+            path: trimmed,
+            measured,
+        })
+    }
+
+    /// Loads and prepares a trial directory.
+    pub fn load(dir: &std::path::Path) -> Result<Self, Error> {
+        Self::from_trial(&Trial::load(dir)?)
+    }
+
+    /// Probe travel along the path, µm.
+    pub fn travel_um(&self) -> f64 {
+        self.path.windows(2).map(|w| (w[1].probe_um - w[0].probe_um).norm()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn open_plate_has_no_walls() {
+        assert!(open_plate().walls.is_empty());
+    }
+
+    #[test]
+    fn probe_is_interpolated_and_clamped() {
+        let path = [
+            ProbePoint { t_s: 0.0, probe_um: Vec2::new(0.0, 0.0) },
+            ProbePoint { t_s: 1.0, probe_um: Vec2::new(10.0, 0.0) },
+        ];
+        assert_eq!(probe_at(&path, 0.5), Vec2::new(5.0, 0.0));
+        assert_eq!(probe_at(&path, -1.0), Vec2::new(0.0, 0.0));
+        assert_eq!(probe_at(&path, 2.0), Vec2::new(10.0, 0.0));
+    }
+}

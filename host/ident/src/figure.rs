@@ -1,0 +1,167 @@
+//! A figure like the paper's Fig. 5: simulation against measurement for the best and the
+//! worst trial under the identified parameters. Per trial, a plan view (tracked and simulated
+//! outlines at start, middle and end; centre-of-mass paths; the probe path) over the
+//! orientation against time.
+
+use crate::Error;
+use crate::IdentTrial;
+use crate::score::{Candidate, Score, ScoreSettings, pose_at, simulate};
+use mesopush_core::geom::Pose;
+use mesopush_plot::{DrawResult, Figure, save};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+/// One trial's panel.
+#[derive(Debug, Clone, Copy)]
+pub struct Fig5Trial<'a> {
+    /// The trial.
+    pub trial: &'a IdentTrial,
+    /// Panel label, e.g. `best`.
+    pub label: &'a str,
+    /// Its score under the candidate.
+    pub score: Score,
+}
+
+/// Draws the panels side by side to `path` (`.png` or `.svg`).
+pub fn draw_fig5(
+    panels: &[Fig5Trial<'_>],
+    c: &Candidate,
+    settings: &ScoreSettings,
+    path: &Path,
+) -> Result<(), Error> {
+    // The simulations run here, before drawing: the figure only draws what it is given.
+    let sims: Vec<Option<Vec<(f64, Pose)>>> = panels
+        .iter()
+        .map(|p| {
+            let (samples, _) = simulate(p.trial, c, settings)?;
+            Some(p.trial.measured.iter().map(|(t, _)| (*t, pose_at(&samples, *t))).collect())
+        })
+        .collect();
+    let size = (600 * panels.len().max(1) as u32, 800);
+    Ok(save(&Fig5 { panels, sims: &sims }, path, size)?)
+}
+
+/// The panels with their simulated poses at the measured times (`None`: the simulation of
+/// that trial failed; its panel stays empty).
+struct Fig5<'a> {
+    panels: &'a [Fig5Trial<'a>],
+    sims: &'a [Option<Vec<(f64, Pose)>>],
+}
+
+impl Figure for Fig5<'_> {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult
+    where
+        DB::ErrorType: 'static,
+    {
+        area.fill(&WHITE)?;
+        let cells = area.split_evenly((1, self.panels.len().max(1)));
+        for ((panel, sim), cell) in self.panels.iter().zip(self.sims).zip(cells) {
+            let Some(sim) = sim else { continue };
+            let (top, bottom) = cell.split_vertically(520);
+            plan_view(&top, panel, sim)?;
+            theta_view(&bottom, panel, sim)?;
+        }
+        area.present()?;
+        Ok(())
+    }
+}
+
+fn outline(part: &mesopush_sim::Part, pose: &Pose) -> Vec<(f64, f64)> {
+    let mut pts: Vec<(f64, f64)> =
+        part.polygon().transformed(pose).vertices().iter().map(|v| (v.x, v.y)).collect();
+    pts.push(pts[0]);
+    pts
+}
+
+fn plan_view<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &Fig5Trial<'_>,
+    sim: &[(f64, Pose)],
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let t = p.trial;
+    let meas: Vec<Pose> = std::iter::once(t.start).chain(t.measured.iter().map(|m| m.1)).collect();
+    let mut pts: Vec<(f64, f64)> = t.path.iter().map(|q| (q.probe_um.x, q.probe_um.y)).collect();
+    for pose in meas.iter().chain(sim.iter().map(|s| &s.1)) {
+        pts.extend(outline(&t.part, pose));
+    }
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for (x, y) in &pts {
+        (x0, x1, y0, y1) = (x0.min(*x), x1.max(*x), y0.min(*y), y1.max(*y));
+    }
+    let half = 0.5 * (x1 - x0).max(y1 - y0) + 50.0;
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let title = format!(
+        "{} trial {}: X,Y MSE {:.3} µm², θ MSE {:.5} deg²",
+        p.label,
+        t.id,
+        p.score.xy_mse_um2,
+        p.score.theta_mse_deg2()
+    );
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 16))
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(50)
+        .build_cartesian_2d(cx - half..cx + half, cy + half..cy - half)?;
+    chart.configure_mesh().x_desc("x [µm]").y_desc("y [µm] (down)").disable_mesh().draw()?;
+    let probe: Vec<(f64, f64)> = t.path.iter().map(|q| (q.probe_um.x, q.probe_um.y)).collect();
+    chart
+        .draw_series(std::iter::once(PathElement::new(probe, BLACK.mix(0.5).stroke_width(1))))?
+        .label("probe")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], BLACK.mix(0.5)));
+    let n = meas.len() - 1;
+    for k in [0, n / 2, n] {
+        chart.draw_series(std::iter::once(PathElement::new(
+            outline(&t.part, &meas[k]),
+            BLUE.stroke_width(2),
+        )))?;
+        let s = if k == 0 { t.start } else { sim[k - 1].1 };
+        chart.draw_series(std::iter::once(PathElement::new(
+            outline(&t.part, &s),
+            RED.stroke_width(1),
+        )))?;
+    }
+    let mpath: Vec<(f64, f64)> = meas.iter().map(|q| (q.x_um, q.y_um)).collect();
+    chart
+        .draw_series(std::iter::once(PathElement::new(mpath, BLUE.stroke_width(2))))?
+        .label("tracked")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], BLUE.stroke_width(2)));
+    let spath: Vec<(f64, f64)> = sim.iter().map(|q| (q.1.x_um, q.1.y_um)).collect();
+    chart
+        .draw_series(std::iter::once(PathElement::new(spath, RED.stroke_width(1))))?
+        .label("simulated")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED));
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.8)).draw()?;
+    Ok(())
+}
+
+fn theta_view<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &Fig5Trial<'_>,
+    sim: &[(f64, Pose)],
+) -> DrawResult
+where
+    DB::ErrorType: 'static,
+{
+    let deg = |r: f64| r.to_degrees();
+    let meas: Vec<(f64, f64)> =
+        p.trial.measured.iter().map(|(t, q)| (*t, deg(q.theta_rad))).collect();
+    let simd: Vec<(f64, f64)> = sim.iter().map(|(t, q)| (*t, deg(q.theta_rad))).collect();
+    let (t0, t1) = (p.trial.path[0].t_s, p.trial.path[p.trial.path.len() - 1].t_s);
+    let all = meas.iter().chain(&simd).map(|v| v.1);
+    let (lo, hi) = all.fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+    let pad = 0.05 * (hi - lo).max(0.1);
+    let mut chart = ChartBuilder::on(area)
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(50)
+        .build_cartesian_2d(t0..t1, lo - pad..hi + pad)?;
+    chart.configure_mesh().x_desc("t [s]").y_desc("θ [deg]").draw()?;
+    chart.draw_series(meas.iter().map(|v| Circle::new(*v, 2, BLUE.filled())))?;
+    chart.draw_series(std::iter::once(PathElement::new(simd, RED.stroke_width(2))))?;
+    Ok(())
+}

@@ -1,0 +1,148 @@
+//! One round of the cross-entropy method over the [`Skeleton`]'s parameters, with racing and
+//! fresh training worlds every generation ([`super::robust`] runs the rounds and chooses the
+//! plan among their finalists).
+
+use super::montecarlo::draws;
+use super::robust::{RobustSettings, World, successes};
+use super::sampler::Draw;
+use super::skeleton::{BOUNDS, Skeleton};
+use mesopush_sim::plan::PegStart;
+use rand::RngExt;
+
+fn gaussian(rng: &mut impl rand::Rng) -> f64 {
+    let u1: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
+    let u2: f64 = rng.random_range(0.0..1.0);
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// A scored candidate: skeleton and successes on all training worlds.
+pub(super) type Scored = (Skeleton, usize);
+
+/// One raced generation: returns the candidates that ran on every training world, best first
+/// (stable: ties keep sampling order), and the number of replays simulated.
+fn race(
+    cands: &[Skeleton],
+    worlds: &[Draw],
+    keep: usize,
+    world: &World<'_>,
+    start: PegStart,
+) -> (Vec<Scored>, usize) {
+    let half = worlds.len() / 2;
+    let first = successes(cands, &worlds[..half], world, start);
+    let mut order: Vec<usize> = (0..cands.len()).collect();
+    order.sort_by(|a, b| first[*b].cmp(&first[*a]));
+    order.truncate(keep.min(cands.len()));
+    let survivors: Vec<Skeleton> = order.iter().map(|&i| cands[i]).collect();
+    let second = successes(&survivors, &worlds[half..], world, start);
+    let mut scored: Vec<Scored> =
+        order.iter().zip(&second).map(|(&i, s2)| (cands[i], first[i] + s2)).collect();
+    scored.sort_by_key(|a| std::cmp::Reverse(a.1));
+    let replays = cands.len() * half + survivors.len() * (worlds.len() - half);
+    (scored, replays)
+}
+
+/// Moves the sampling distribution to the elite's mean and (smoothed) spread.
+fn update(mean: &mut [f64], sigma: &mut [f64], elite: &[Scored]) {
+    let n = elite.len() as f64;
+    for (k, (m, s)) in mean.iter_mut().zip(sigma.iter_mut()).enumerate() {
+        let mu = elite.iter().map(|e| e.0.params[k]).sum::<f64>() / n;
+        let var = elite.iter().map(|e| (e.0.params[k] - mu).powi(2)).sum::<f64>() / n;
+        *m = mu;
+        *s = (0.7 * *s + 0.3 * var.sqrt()).max(5.0);
+    }
+}
+
+/// Counters of a search.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Counts {
+    pub(super) evaluations: usize,
+    pub(super) replays: usize,
+    pub(super) generations: usize,
+    pub(super) rounds: usize,
+    pub(super) stopped: bool,
+}
+
+/// One CEM round from [`RobustSettings::initial`]; returns its finalists (the best trained,
+/// the final sampling mean, the initial skeleton, then the next best distinct ones), adding to
+/// `counts`.
+pub(super) fn cem_round(
+    world: &World<'_>,
+    start: PegStart,
+    settings: &RobustSettings,
+    rng: &mut impl rand::Rng,
+    progress: &mut dyn FnMut(usize, f64) -> bool,
+    counts: &mut Counts,
+) -> Vec<Scored> {
+    let n_train = settings.samples.max(2);
+    let train_unc = world.uncertainty.scaled(settings.train_scale.max(0.0));
+    let new_worlds = |seed: u64| draws(world.model, &train_unc, world.supports, n_train, seed);
+    let mut worlds = new_worlds(rng.random());
+    let s0 = settings.initial.clamped();
+    let s0_scored = (s0, successes(&[s0], &worlds, world, start)[0]);
+    let mut hall: Vec<Scored> = vec![s0_scored];
+    counts.evaluations += 1;
+    counts.replays += n_train;
+    let mut mean = s0.params;
+    let mut sigma: Vec<f64> = BOUNDS.iter().map(|(lo, hi)| (hi - lo) / 6.0).collect();
+    let elite_n = settings.elite.max(1);
+    let keep = elite_n.max(settings.population / 2);
+    // The incumbent: the best so far, scored on the current worlds.
+    let mut incumbent = hall[0];
+    for g in 0..settings.generations {
+        counts.generations += 1;
+        let mut cands: Vec<Skeleton> = (0..settings.population)
+            .map(|_| {
+                let mut p = mean;
+                p.iter_mut().zip(&sigma).for_each(|(v, s)| *v += s * gaussian(rng));
+                Skeleton { params: p }.clamped()
+            })
+            .collect();
+        let fresh = settings.resample && g > 0;
+        if fresh {
+            // New worlds each generation: the incumbent races again on them (last, so ties
+            // go to a new candidate), and no score is compared across world sets.
+            worlds = new_worlds(rng.random());
+            cands.push(incumbent.0);
+        }
+        counts.evaluations += cands.len();
+        let (scored, used) = race(&cands, &worlds, keep, world, start);
+        counts.replays += used;
+        // The incumbent stays in the elite (stable merge: on ties the older one first).
+        let mut pool: Vec<Scored> = if fresh { Vec::new() } else { vec![incumbent] };
+        pool.extend(scored.iter().copied());
+        pool.sort_by_key(|a| std::cmp::Reverse(a.1));
+        update(&mut mean, &mut sigma, &pool[..elite_n.min(pool.len())]);
+        incumbent = pool[0];
+        hall.extend(scored);
+        hall.sort_by_key(|a| std::cmp::Reverse(a.1));
+        let best_rate = incumbent.1 as f64 / n_train as f64;
+        let reached = settings.target_rate < 1.0 && best_rate >= settings.target_rate;
+        if !progress(counts.generations, best_rate) || reached {
+            counts.stopped = true;
+            break;
+        }
+    }
+    // The sampling distribution's mean is a finalist too: the centre of the region the elite
+    // found, less likely than the single best to owe its score to lucky draws.
+    let centre = Skeleton { params: mean }.clamped();
+    let centre_train = successes(&[centre], &worlds, world, start)[0];
+    counts.replays += n_train;
+    // The start too: the search never returns worse than where it started on the
+    // validation worlds (its training score is from the first generation's worlds).
+    let mut finalists: Vec<Scored> = Vec::new();
+    for f in [incumbent, (centre, centre_train), s0_scored] {
+        if !finalists.iter().any(|g| g.0 == f.0) {
+            finalists.push(f);
+        }
+    }
+    finalists.truncate(settings.finalists.max(1));
+    for h in &hall {
+        if finalists.len() >= settings.finalists.max(1) {
+            break;
+        }
+        if !finalists.iter().any(|f| f.0 == h.0) {
+            finalists.push(*h);
+        }
+    }
+    finalists
+}

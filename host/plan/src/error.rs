@@ -1,0 +1,59 @@
+//! The plan crate's one error: plans that cannot be found or checked (naming why), files that cannot be read, and the failures of the crates it builds on.
+
+use std::path::PathBuf;
+
+/// Everything the plan crate can fail with.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Reading or writing a file failed.
+    #[error("{path}: {cause}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        cause: std::io::Error,
+    },
+    /// A file could not be parsed (TOML, CSV, JSON).
+    #[error("{path}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, with a line or field when known.
+        message: String,
+    },
+    /// An input value is invalid; the message names the value and the rule it breaks.
+    #[error("invalid {what}: {message}")]
+    Invalid {
+        /// The field or object.
+        what: &'static str,
+        /// The value and the rule it breaks.
+        message: String,
+    },
+    /// A shared helper (atomic file, shard set) failed.
+    #[error(transparent)]
+    Core(#[from] mesopush_core::Error),
+    /// The simulator or a model, plan or fixture failed.
+    #[error(transparent)]
+    Sim(#[from] mesopush_sim::Error),
+    /// A figure could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] mesopush_plot::Error),
+}
+
+impl Error {
+    /// Shorthand for [`Error::Invalid`].
+    pub fn invalid(what: &'static str, message: impl Into<String>) -> Self {
+        Error::Invalid { what, message: message.into() }
+    }
+
+    /// Shorthand for [`Error::Io`].
+    pub fn io(path: impl Into<PathBuf>, cause: std::io::Error) -> Self {
+        Error::Io { path: path.into(), cause }
+    }
+
+    /// Shorthand for [`Error::Parse`].
+    pub fn parse(path: impl Into<PathBuf>, message: impl ToString) -> Self {
+        Error::Parse { path: path.into(), message: message.to_string() }
+    }
+}

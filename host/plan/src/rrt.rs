@@ -1,0 +1,207 @@
+//! The paper's planner (section II-B, III-B): an RRT over peg poses whose edges are simulated
+//! probe pushes along x or y from discretised pushing locations on the reachable boundary.
+//!
+//! Each iteration samples a target pose (the goal with probability `goal_bias`), takes the
+//! nearest node, simulates `inputs_per_iteration` random pushes from it (random location,
+//! axis and length) and keeps the outcome closest to the target, as in RRTs for systems
+//! that can only be steered through their inputs. Every new node also tries the direct
+//! connection to the goal: a push through the centre of mass that centres the peg on the
+//! channel, then one along −x that slides it in. A branch counts as found only when the
+//! whole plan, replayed from the start, inserts the peg and keeps the probe out of the walls.
+
+use super::clearance::first_wall_violation;
+use super::pushes::{PushSettings, boundary_locations};
+use super::shortcut::shortcut;
+use super::steer::{Extension, Steer};
+use super::tree::{Tree, pose_distance};
+use crate::Error;
+use mesopush_core::geom::Pose;
+use mesopush_sim::fixture::FIELD_UM;
+use mesopush_sim::{Plan, Simulator, replay};
+use rand::RngExt;
+
+/// RRT settings (plain data, documented defaults).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RrtSettings {
+    /// Iterations before giving up. Default 2000.
+    pub max_iterations: usize,
+    /// Random pushes simulated per iteration. Default 6.
+    pub inputs_per_iteration: usize,
+    /// Probability of steering towards the goal. Default 0.2.
+    pub goal_bias: f64,
+    /// Push discretisation.
+    pub pushes: PushSettings,
+    /// Probe speed written into the plan, µm/s. Default 140 (the paper's).
+    pub speed_um_s: f64,
+    /// Goal pose tolerance for trying the direct connection: |Δθ| (mod π), degrees.
+    /// Default 8.
+    pub connect_theta_deg: f64,
+    /// Most push drops the shortcut pass tries on the found branch (`plan::shortcut`);
+    /// 0 keeps the branch as found. Default 60.
+    pub shortcut_attempts: usize,
+    /// Orientation window of the goal connection during shortcutting, degrees (wider than
+    /// `connect_theta_deg`: the channel's chamfers square a peg that comes in turned, and the
+    /// pass keeps only plans whose whole replay inserts). Default 20.
+    pub shortcut_connect_theta_deg: f64,
+}
+
+impl Default for RrtSettings {
+    fn default() -> Self {
+        Self {
+            max_iterations: 2000,
+            inputs_per_iteration: 6,
+            goal_bias: 0.2,
+            pushes: PushSettings::default(),
+            speed_um_s: 140.0,
+            connect_theta_deg: 8.0,
+            shortcut_attempts: 60,
+            shortcut_connect_theta_deg: 20.0,
+        }
+    }
+}
+
+/// What the search did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RrtResult {
+    /// The plan, when one was found.
+    pub plan: Option<Plan>,
+    /// Iterations run.
+    pub iterations: usize,
+    /// Nodes in the tree.
+    pub tree_size: usize,
+    /// Pushes (tree edges) in the plan after shortcutting; 0 when none was found.
+    pub pushes: usize,
+    /// Pushes of the branch the search found, before shortcutting; 0 when none was found.
+    pub pushes_before_shortcut: usize,
+    /// Push drops the shortcut pass tried.
+    pub shortcut_attempts: usize,
+    /// Push simulations run.
+    pub simulated_pushes: usize,
+    /// Candidate plans that reached the goal in the tree but failed the whole-plan replay.
+    pub rejected_at_verification: usize,
+}
+
+/// Progress report for a caller's bar; return `false` from the callback to stop early.
+#[derive(Debug, Clone, Copy)]
+pub struct Progress {
+    /// Iterations so far.
+    pub iteration: usize,
+    /// Nodes so far.
+    pub tree_size: usize,
+}
+
+/// Plans from the peg pose `start` to the goal of `sim`'s fixture.
+pub fn plan_rrt(
+    sim: &mut Simulator,
+    start: Pose,
+    settings: &RrtSettings,
+    rng: &mut impl rand::Rng,
+    progress: &mut dyn FnMut(Progress) -> bool,
+) -> Result<RrtResult, Error> {
+    let locations = boundary_locations(sim.model().part.polygon(), settings.pushes.n_locations);
+    let mut steer = Steer::new(sim, &locations, settings);
+    let mut tree = Tree::new(start);
+    let mut out = RrtResult {
+        plan: None,
+        iterations: 0,
+        tree_size: 1,
+        pushes: 0,
+        pushes_before_shortcut: 0,
+        shortcut_attempts: 0,
+        simulated_pushes: 0,
+        rejected_at_verification: 0,
+    };
+    let goal = steer.goal();
+    if let Some(leaf) = try_connect(&mut steer, &mut tree, 0, settings, &mut out)? {
+        return finish(&mut steer, &tree, leaf, settings, out);
+    }
+    for it in 0..settings.max_iterations {
+        out.iterations = it + 1;
+        let target = if rng.random_bool(settings.goal_bias) { goal } else { random_pose(rng) };
+        let near = tree.nearest(&target);
+        let mut best: Option<Extension> = None;
+        for _ in 0..settings.inputs_per_iteration {
+            out.simulated_pushes += 1;
+            let Some(ext) = steer.random_push(&tree.nodes[near], rng)? else { continue };
+            let better = best.as_ref().is_none_or(|b| {
+                pose_distance(&ext.node.pose, &target) < pose_distance(&b.node.pose, &target)
+            });
+            if better {
+                best = Some(ext);
+            }
+        }
+        if let Some(ext) = best {
+            let id = steer.add(&mut tree, near, ext);
+            if let Some(leaf) = try_connect(&mut steer, &mut tree, id, settings, &mut out)? {
+                return finish(&mut steer, &tree, leaf, settings, out);
+            }
+        }
+        out.tree_size = tree.nodes.len();
+        if !progress(Progress { iteration: it + 1, tree_size: tree.nodes.len() }) {
+            break;
+        }
+    }
+    out.tree_size = tree.nodes.len();
+    Ok(out)
+}
+
+/// Tries the goal connection from node `id`; returns the inserted leaf whose whole plan
+/// verifies.
+fn try_connect(
+    steer: &mut Steer<'_>,
+    tree: &mut Tree,
+    id: usize,
+    settings: &RrtSettings,
+    out: &mut RrtResult,
+) -> Result<Option<usize>, Error> {
+    let (leaf, inserted, sims) = steer.connect(tree, id)?;
+    out.simulated_pushes += sims;
+    let Some(leaf) = leaf else { return Ok(None) };
+    if !inserted {
+        return Ok(None);
+    }
+    let plan = tree.plan_to(leaf, "RRT plan", settings.speed_um_s);
+    if steer.verify(&plan)? {
+        return Ok(Some(leaf));
+    }
+    out.rejected_at_verification += 1;
+    Ok(None)
+}
+
+/// The plan to the found `leaf`, shortcut.
+fn finish(
+    steer: &mut Steer<'_>,
+    tree: &Tree,
+    leaf: usize,
+    s: &RrtSettings,
+    mut out: RrtResult,
+) -> Result<RrtResult, Error> {
+    out.tree_size = tree.nodes.len();
+    out.pushes_before_shortcut = tree.branch(leaf).len() - 1;
+    let short = shortcut(steer, tree, leaf, s)?;
+    out.shortcut_attempts = short.attempts;
+    out.pushes = short.tree.branch(short.leaf).len() - 1;
+    let name = format!("RRT plan ({} pushes, {} iterations)", out.pushes, out.iterations);
+    out.plan = Some(short.tree.plan_to(short.leaf, &name, s.speed_um_s));
+    Ok(out)
+}
+
+/// A uniformly random peg pose over the camera field.
+fn random_pose(rng: &mut impl rand::Rng) -> Pose {
+    Pose::new(
+        rng.random_range(0.0..FIELD_UM[0]),
+        rng.random_range(0.0..FIELD_UM[1]),
+        rng.random_range(-std::f64::consts::FRAC_PI_2..std::f64::consts::FRAC_PI_2),
+    )
+}
+
+/// Whether `plan`, replayed from its start, inserts the peg without jamming and keeps the
+/// probe out of the walls and inside the executor's workspace.
+pub fn plan_is_feasible(sim: &mut Simulator, plan: &Plan) -> Result<bool, Error> {
+    let r = sim.model().probe_radius_um;
+    if first_wall_violation(plan.probe_start(), &plan.moves_um, &sim.fixture().walls, r).is_some() {
+        return Ok(false);
+    }
+    let rep = replay(sim, plan, None)?;
+    Ok(rep.inserted && rep.events.is_empty())
+}

@@ -1,0 +1,278 @@
+//! The hardware-in-the-loop workflow's host side, as separate processes (docs/hil.md):
+//! [`flash`] uploads a plan to a running `mesopush-executor`; [`run`] arms and starts it,
+//! listens until the trial ends, waits for the executor's recording of it, and completes
+//! that into a trial log ([`super::complete`]) with a verdict — and, when the firmware
+//! simulator's truth file is given, the frame-timestamp and tracking errors against it.
+
+use super::complete::{Completed, Completion, complete_trial, read_rows};
+use super::hostlink::{HostPort, drive, fresh_session_id};
+use super::session::{HostSession, SessionEnd, SessionGoal, plan_steps};
+use crate::Error;
+use mesopush_core::geom::Vec2;
+use mesopush_protocol::host::{ExecToHost, ProbeTelemetry, TrialEvent, TrialEventKind};
+use mesopush_sim::Plan;
+use mesopush_trial::{FrameRow, PoseRow, TrialState};
+use mesopush_vision::Calibration;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Longest wait for the executor to accept an upload.
+pub const FLASH_TIMEOUT: Duration = Duration::from_secs(30);
+/// Longest wait for the executor's recording after the trial's end.
+pub const RECORDING_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// Uploads `plan` to the executor at `addr`; returns the steps accepted.
+pub fn flash(addr: &str, plan: &Plan) -> Result<u32, Error> {
+    let mut port = HostPort::open(addr)?;
+    let mut s = HostSession::new(plan, SessionGoal::Flash, fresh_session_id())?;
+    match drive(&mut s, &mut port, addr, FLASH_TIMEOUT, &mut |_, _| {})? {
+        SessionEnd::Accepted { step_count } => Ok(step_count),
+        SessionEnd::Refused(why) => Err(Error::invalid("flash", why)),
+        SessionEnd::Trial(k) => Err(Error::invalid("flash", format!("unexpected trial end {k:?}"))),
+    }
+}
+
+/// What `run` needs.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// The executor's host line.
+    pub addr: String,
+    /// The plan flashed (its id arms it; its steps rebuild the schedule).
+    pub plan: Plan,
+    /// The executor's `--record-dir`.
+    pub record_dir: PathBuf,
+    /// Where the trial log goes (default: the recording's own directory).
+    pub out: Option<PathBuf>,
+    /// The empty fixture's frame (tracking reference).
+    pub background: PathBuf,
+    /// The calibration, the stage's fixture origin (µm) and the camera period (µs).
+    pub calibration: Calibration,
+    /// Fixture origin in stage coordinates, µm.
+    pub fixture_origin_um: Vec2,
+    /// Nominal camera period, µs.
+    pub frame_period_us: u64,
+    /// The executor's setpoint period and start lead, µs.
+    pub period_us: u64,
+    /// Start lead, µs.
+    pub lead_us: u64,
+    /// The firmware simulator's `fwsim-truth.csv`, for the error figures.
+    pub truth: Option<PathBuf>,
+    /// The firmware simulator's `fwsim-world.json` (its world description and seed), recorded
+    /// as trial.json's `world` when the rig was simulated.
+    pub sim_world: Option<PathBuf>,
+}
+
+/// Errors against the simulator's truth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TruthFigures {
+    /// Frames matched with the truth by their counter.
+    pub frames_compared: usize,
+    /// Executor stamp − true exposure, µs: median, and largest magnitude.
+    pub stamp_error_us_p50: i64,
+    /// Largest |stamp − exposure|, µs.
+    pub stamp_error_us_max_abs: i64,
+    /// Arrival at the executor − true exposure, µs (what an arrival stamp would be off by):
+    /// median and maximum.
+    pub arrival_latency_us_p50: i64,
+    /// Maximum.
+    pub arrival_latency_us_max: i64,
+    /// Largest tracked-vs-true peg position error over tracked frames, µm.
+    pub track_error_um_max: f64,
+}
+
+/// `run`'s report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunReport {
+    /// The completed trial.
+    #[serde(flatten)]
+    pub trial: Completed,
+    /// Position reports heard.
+    pub telemetry: usize,
+    /// Against the simulator's truth, when given.
+    pub truth: Option<TruthFigures>,
+    /// Wall time, s.
+    pub wall_time_s: f64,
+}
+
+#[derive(Debug, Deserialize)]
+struct Recording {
+    exec_epoch_mono_us: u64,
+    t0_exec_us: u64,
+}
+
+#[derive(Debug, Deserialize)]
+struct TruthRow {
+    frame_seq: u32,
+    exposure_mono_us: u64,
+    x_um: f64,
+    y_um: f64,
+}
+
+/// Arms, starts and follows the trial, then completes its recording.
+pub fn run(o: &RunOptions) -> Result<RunReport, Error> {
+    let wall = Instant::now();
+    let mut port = HostPort::open(&o.addr)?;
+    let mut s = HostSession::new(&o.plan, SessionGoal::Run, fresh_session_id())?;
+    let (mut telemetry, mut started): (Vec<ProbeTelemetry>, Option<TrialEvent>) = (vec![], None);
+    let plan_s = o.plan.travel_um() / o.plan.speed_um_s;
+    let timeout = Duration::from_secs_f64(plan_s + 60.0);
+    let end = drive(&mut s, &mut port, &o.addr, timeout, &mut |_, m| match m {
+        ExecToHost::Telemetry(t) => telemetry.push(*t),
+        ExecToHost::Trial(t) if t.kind == TrialEventKind::Started => started = Some(*t),
+        _ => {}
+    })?;
+    drop(port); // hang up: the executor's line waits for the next host
+    let (state, reason) = match end {
+        SessionEnd::Trial(TrialEventKind::Done) => (TrialState::Done, None),
+        SessionEnd::Trial(TrialEventKind::Aborted) => (TrialState::Aborted, None),
+        SessionEnd::Trial(TrialEventKind::Faulted(f)) => {
+            (TrialState::Faulted, Some(format!("{f:?}")))
+        }
+        SessionEnd::Refused(r) => return Err(Error::invalid("run", r)),
+        other => return Err(Error::invalid("run", format!("unexpected end {other:?}"))),
+    };
+    let Some(t0) = started else {
+        return Err(Error::invalid("run", "the trial ended but its start was never heard"));
+    };
+    let name = format!("trial-{:08x}-{}", t0.plan_id, t0.exec_time_us);
+    let recorded = wait_for_recording(&o.record_dir.join(&name))?;
+    let dir = match &o.out {
+        Some(out) => copy_dir(&recorded, out)?,
+        None => recorded,
+    };
+    let bg = std::fs::read(&o.background).map_err(|e| Error::io(&o.background, e))?;
+    std::fs::write(dir.join("background.png"), bg).map_err(|e| Error::io(&dir, e))?;
+    let c = Completion {
+        trial_id: name,
+        plan: o.plan.clone(),
+        steps: plan_steps(&o.plan)?,
+        calibration: o.calibration,
+        fixture_origin_um: o.fixture_origin_um,
+        period_us: o.period_us,
+        lead_us: o.lead_us,
+        frame_period_us: o.frame_period_us,
+        t0_us: t0.exec_time_us,
+        state,
+        reason,
+        telemetry: telemetry.clone(),
+    };
+    let sim_world = o.sim_world.as_deref().map(read_sim_world).transpose()?;
+    let trial = complete_trial(&dir, &c)?;
+    if let Some(world) = sim_world {
+        record_sim_world(&dir, world)?;
+    }
+    let truth = o.truth.as_deref().map(|t| truth_figures(&dir, t)).transpose()?;
+    Ok(RunReport {
+        trial,
+        telemetry: telemetry.len(),
+        truth,
+        wall_time_s: wall.elapsed().as_secs_f64(),
+    })
+}
+
+/// Reads the simulator's `fwsim-world.json`: `{"seed": …, "world": <description>}`.
+fn read_sim_world(path: &Path) -> Result<SimWorld, Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    serde_json::from_str(&text)
+        .map_err(|e| Error::invalid("--sim-world", format!("{}: {e}", path.display())))
+}
+
+/// Adds the simulated world to the completed trial.json (`world`, seed `world`).
+fn record_sim_world(dir: &Path, w: SimWorld) -> Result<(), Error> {
+    let path = dir.join("trial.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let bad = |e: serde_json::Error| Error::invalid("trial.json", e.to_string());
+    let mut meta: mesopush_trial::TrialMeta = serde_json::from_str(&text).map_err(bad)?;
+    meta.world = Some(w.world);
+    meta.seeds.insert("world".into(), w.seed);
+    let text = serde_json::to_string_pretty(&meta).map_err(bad)?;
+    Ok(mesopush_core::fsx::write_atomic(&path, text.as_bytes())?)
+}
+
+/// The simulator's world file: the one seed and the world's description.
+#[derive(Debug, Deserialize)]
+struct SimWorld {
+    seed: u64,
+    world: serde_json::Value,
+}
+
+fn wait_for_recording(dir: &Path) -> Result<PathBuf, Error> {
+    let marker = dir.join("recording.json");
+    let t = Instant::now();
+    while !marker.exists() {
+        if t.elapsed() > RECORDING_TIMEOUT {
+            return Err(Error::invalid(
+                "recording",
+                format!(
+                    "{} did not appear within {RECORDING_TIMEOUT:?}: is the executor running \
+                     with --record-dir {} and --camera?",
+                    marker.display(),
+                    dir.parent().unwrap_or(dir).display()
+                ),
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Ok(dir.to_path_buf())
+}
+
+/// Copies a recording (flat files and `frames/`) into `out`, which must not hold a trial.
+fn copy_dir(from: &Path, out: &Path) -> Result<PathBuf, Error> {
+    if out.join("trial.json").exists() || out.join("frames.csv").exists() {
+        let msg = format!("{} already holds a trial; refusing to overwrite it", out.display());
+        return Err(Error::invalid("--out", msg));
+    }
+    for sub in ["", "frames"] {
+        let (src, dst) = (from.join(sub), out.join(sub));
+        std::fs::create_dir_all(&dst).map_err(|e| Error::io(&dst, e))?;
+        for entry in std::fs::read_dir(&src).map_err(|e| Error::io(&src, e))? {
+            let p = entry.map_err(|e| Error::io(&src, e))?.path();
+            if p.is_file() {
+                let to = dst.join(p.file_name().unwrap_or_default());
+                std::fs::copy(&p, &to).map_err(|e| Error::io(&to, e))?;
+            }
+        }
+    }
+    Ok(out.to_path_buf())
+}
+
+fn percentile(v: &mut [i64], q: f64) -> i64 {
+    v.sort_unstable();
+    v.get(((v.len() as f64 - 1.0) * q).round() as usize).copied().unwrap_or(0)
+}
+
+/// Frame stamps and tracked poses of the trial in `dir` against `fwsim-truth.csv`.
+pub fn truth_figures(dir: &Path, truth_path: &Path) -> Result<TruthFigures, Error> {
+    let rec_path = dir.join("recording.json");
+    let text = std::fs::read_to_string(&rec_path).map_err(|e| Error::io(&rec_path, e))?;
+    let rec: Recording = serde_json::from_str(&text)
+        .map_err(|e| Error::Parse { path: rec_path.clone(), message: e.to_string() })?;
+    let base = (rec.exec_epoch_mono_us + rec.t0_exec_us) as i64;
+    let truth: Vec<TruthRow> = read_rows(truth_path)?;
+    let by_seq: std::collections::HashMap<u32, &TruthRow> =
+        truth.iter().map(|t| (t.frame_seq, t)).collect();
+    let frames: Vec<FrameRow> = read_rows(&dir.join("frames.csv"))?;
+    let poses: Vec<PoseRow> = read_rows(&dir.join("pose.csv"))?;
+    let (mut stamp, mut arrival, mut track) = (vec![], vec![], 0.0f64);
+    for f in &frames {
+        let (Some(tc), Some(t)) = (f.t_capture_us, by_seq.get(&f.frame_seq)) else { continue };
+        stamp.push(base + tc - t.exposure_mono_us as i64);
+        if let Some(ta) = f.t_arrival_us {
+            arrival.push(base + ta - t.exposure_mono_us as i64);
+        }
+        if let Some(p) = poses.iter().find(|p| p.frame_index == Some(f.index)) {
+            track = track.max(Vec2::new(p.x_um - t.x_um, p.y_um - t.y_um).norm());
+        }
+    }
+    let n = stamp.len();
+    let max_abs = stamp.iter().map(|e| e.abs()).max().unwrap_or(0);
+    Ok(TruthFigures {
+        frames_compared: n,
+        stamp_error_us_p50: percentile(&mut stamp, 0.5),
+        stamp_error_us_max_abs: max_abs,
+        arrival_latency_us_p50: percentile(&mut arrival, 0.5),
+        arrival_latency_us_max: arrival.iter().copied().max().unwrap_or(0),
+        track_error_um_max: track,
+    })
+}

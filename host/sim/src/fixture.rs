@@ -1,0 +1,199 @@
+//! The fixture: wall polygons the peg can touch, and the goal region (the narrow channel).
+//!
+//! [`Fixture::paper`] reconstructs the paper's test-bed (a 2015 µm wide channel opening into a
+//! 1090 µm narrow channel, origin at the fixture's top-left corner in the image, x right,
+//! y down); `docs/fixture.md` documents the reconstruction with a dimensioned figure.
+
+use crate::Error;
+use mesopush_core::geom::{ConvexPolygon, Vec2};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Width of the paper's wide channel, µm.
+pub const WIDE_CHANNEL_UM: f64 = 2015.0;
+/// Width of the paper's narrow channel, µm.
+pub const NARROW_CHANNEL_UM: f64 = 1090.0;
+/// The camera's field of view, µm (3.37 × 2.52 mm).
+pub const FIELD_UM: [f64; 2] = [3370.0, 2520.0];
+
+/// Walls and goal. Walls are convex polygons in the fixture frame, µm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fixture {
+    /// Wall polygons (fixture material).
+    pub walls: Vec<ConvexPolygon>,
+    /// The goal region (the narrow channel). The peg counts as inserted when its centre of
+    /// mass lies at least `insert_depth_um` inside it — which a 985 µm peg in a 1090 µm
+    /// channel can only do when aligned with the channel.
+    pub goal: ConvexPolygon,
+    /// How deep inside the goal the centre of mass must be, µm. Default 100.
+    #[serde(default = "default_depth")]
+    pub insert_depth_um: f64,
+}
+
+fn default_depth() -> f64 {
+    100.0
+}
+
+/// Dimensions of the reconstructed paper fixture (all µm, fixture frame).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PaperFixtureParams {
+    /// x of the step where the wide channel (to the right) meets the narrow one (to the left).
+    pub x_step_um: f64,
+    /// y of the wide channel's upper wall.
+    pub wide_top_um: f64,
+    /// y of the narrow channel's upper wall.
+    pub narrow_top_um: f64,
+    /// 45° chamfer cut off both entrance corners of the narrow channel (leg length), µm.
+    #[serde(default)]
+    pub chamfer_um: f64,
+}
+
+impl Default for PaperFixtureParams {
+    /// The reconstruction chosen in `docs/fixture.md` (searched jointly with the nominal
+    /// support distribution by `host/examples/fixture_search.rs`).
+    fn default() -> Self {
+        Self { x_step_um: 525.0, wide_top_um: 300.0, narrow_top_um: 950.0, chamfer_um: 225.0 }
+    }
+}
+
+/// How far the walls run beyond the camera field, µm (the narrow channel continues to the
+/// left out of view).
+const OUTSIDE_UM: f64 = 3000.0;
+
+impl Fixture {
+    /// The paper's fixture with the default reconstruction.
+    pub fn paper() -> Self {
+        Self::paper_with(&PaperFixtureParams::default()).expect("default fixture is valid")
+    }
+
+    /// The paper's fixture with given dimensions.
+    pub fn paper_with(p: &PaperFixtureParams) -> Result<Self, Error> {
+        let wide_bottom = p.wide_top_um + WIDE_CHANNEL_UM;
+        let narrow_bottom = p.narrow_top_um + NARROW_CHANNEL_UM;
+        let (xl, xr) = (-OUTSIDE_UM, FIELD_UM[0] + OUTSIDE_UM);
+        let yb = FIELD_UM[1] + OUTSIDE_UM;
+        let ok = p.x_step_um > 0.0
+            && p.x_step_um < FIELD_UM[0]
+            && p.wide_top_um >= 0.0
+            && (0.0..=300.0).contains(&p.chamfer_um)
+            && p.narrow_top_um >= p.wide_top_um
+            && narrow_bottom <= wide_bottom
+            && wide_bottom < yb;
+        if !ok {
+            return Err(Error::invalid(
+                "fixture",
+                format!("paper fixture dimensions out of range: {p:?}"),
+            ));
+        }
+        let mut walls = Vec::new();
+        let mut push_rect = |x0: f64, y0: f64, x1: f64, y1: f64| -> Result<(), Error> {
+            if y1 - y0 > 1.0 && x1 - x0 > 1.0 {
+                walls.push(rect(x0, y0, x1, y1)?);
+            }
+            Ok(())
+        };
+        push_rect(p.x_step_um, 0.0, xr, p.wide_top_um)?;
+        push_rect(p.x_step_um, wide_bottom, xr, yb)?;
+        let c = p.chamfer_um;
+        if c > 0.0 {
+            let (xs, nt, nb) = (p.x_step_um, p.narrow_top_um, narrow_bottom);
+            let v = |pts: &[[f64; 2]]| pts.iter().map(|&[x, y]| Vec2::new(x, y)).collect();
+            walls.push(ConvexPolygon::new(v(&[
+                [xl, 0.0],
+                [xs, 0.0],
+                [xs, nt - c],
+                [xs - c, nt],
+                [xl, nt],
+            ]))?);
+            walls.push(ConvexPolygon::new(v(&[
+                [xl, nb],
+                [xs - c, nb],
+                [xs, nb + c],
+                [xs, yb],
+                [xl, yb],
+            ]))?);
+        } else {
+            push_rect(xl, 0.0, p.x_step_um, p.narrow_top_um)?;
+            push_rect(xl, narrow_bottom, p.x_step_um, yb)?;
+        }
+        let goal = rect(xl, p.narrow_top_um, p.x_step_um, narrow_bottom)?;
+        Ok(Fixture { walls, goal, insert_depth_um: default_depth() })
+    }
+
+    /// Loads a fixture TOML (`walls = [[[x, y], ...], ...]`, `goal = [[x, y], ...]`).
+    pub fn load(path: &Path) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        toml::from_str(&text)
+            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })
+    }
+
+    /// Whether a peg whose centre of mass is at `com` counts as inserted.
+    pub fn inserted(&self, com: &Vec2) -> bool {
+        self.goal.signed_distance(com) <= -self.insert_depth_um
+    }
+}
+
+/// Axis-aligned rectangle from two corners.
+pub fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Result<ConvexPolygon, Error> {
+    Ok(ConvexPolygon::new(vec![
+        Vec2::new(x0, y0),
+        Vec2::new(x1, y0),
+        Vec2::new(x1, y1),
+        Vec2::new(x0, y1),
+    ])?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mesopush_core::geom::Pose;
+
+    #[test]
+    fn the_entrance_chamfer_widens_only_the_mouth() {
+        let f = Fixture::paper();
+        let p = PaperFixtureParams::default();
+        let nt = p.narrow_top_um;
+        // Inside the chamfer, at the step: free space; a chamfer length into the channel: wall.
+        let free = |x: f64, y: f64| f.walls.iter().all(|w| !w.contains(&Vec2::new(x, y), 0.0));
+        assert!(free(p.x_step_um - 1.0, nt - p.chamfer_um / 2.0));
+        assert!(!free(p.x_step_um - p.chamfer_um - 1.0, nt - 1.0));
+        let square = Fixture::paper_with(&PaperFixtureParams { chamfer_um: 0.0, ..p }).unwrap();
+        assert_eq!(square.walls.len(), f.walls.len());
+        assert!(Fixture::paper_with(&PaperFixtureParams { chamfer_um: -1.0, ..p }).is_err());
+    }
+
+    #[test]
+    fn channels_have_the_paper_widths() {
+        let p = PaperFixtureParams::default();
+        let f = Fixture::paper();
+        // A vertical probe line through the wide channel meets walls exactly 2015 µm apart.
+        let x = p.x_step_um + 500.0;
+        let free = |y: f64| f.walls.iter().all(|w| !w.contains(&Vec2::new(x, y), -1e-9));
+        assert!(free(p.wide_top_um + 1.0) && free(p.wide_top_um + WIDE_CHANNEL_UM - 1.0));
+        assert!(!free(p.wide_top_um - 1.0) && !free(p.wide_top_um + WIDE_CHANNEL_UM + 1.0));
+        let x = p.x_step_um - 500.0;
+        let free = |y: f64| f.walls.iter().all(|w| !w.contains(&Vec2::new(x, y), -1e-9));
+        assert!(free(p.narrow_top_um + 1.0) && free(p.narrow_top_um + NARROW_CHANNEL_UM - 1.0));
+        assert!(!free(p.narrow_top_um - 1.0));
+    }
+
+    #[test]
+    fn table2_start_is_free_and_not_inserted() {
+        let f = Fixture::paper();
+        let peg = ConvexPolygon::rectangle(1615.0, 985.0).unwrap();
+        let pose = Pose::new(2330.0, 1210.0, 89f64.to_radians());
+        let start = peg.transformed(&pose);
+        assert!(!f.inserted(&pose.position()));
+        for v in start.vertices() {
+            assert!(f.walls.iter().all(|w| w.signed_distance(v) > 0.0), "vertex {v:?} in a wall");
+        }
+    }
+
+    #[test]
+    fn impossible_dimensions_are_refused() {
+        let p = PaperFixtureParams { narrow_top_um: 2000.0, ..Default::default() };
+        assert!(Fixture::paper_with(&p).is_err());
+    }
+}

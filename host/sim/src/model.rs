@@ -1,0 +1,175 @@
+//! The physical model the simulator runs: the part's shape, its support distribution and the
+//! friction coefficients. Loaded from and saved to a model TOML (identification writes one,
+//! `sim`, `plan` and `robustness` read one).
+
+use super::support::SupportDistribution;
+use crate::Error;
+use crate::effects::Effects;
+use mesopush_core::geom::{ConvexPolygon, Vec2};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Length of the default peg, µm (the paper's typical 1615 × 985 µm peg).
+pub const PEG_LENGTH_UM: f64 = 1615.0;
+/// Width of the default peg, µm.
+pub const PEG_WIDTH_UM: f64 = 985.0;
+
+/// A rigid planar part: a convex polygon in its body frame with the centre of mass at the
+/// origin.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "PartSpec", into = "PartSpec")]
+pub struct Part {
+    polygon: ConvexPolygon,
+}
+
+/// On-disk form of a part: vertices in any frame, and optionally where the COM is (default:
+/// the area centroid, i.e. a uniform plate).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PartSpec {
+    vertices_um: Vec<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    com_um: Option<[f64; 2]>,
+}
+
+impl TryFrom<PartSpec> for Part {
+    type Error = Error;
+    fn try_from(spec: PartSpec) -> Result<Self, Error> {
+        let poly = ConvexPolygon::try_from(spec.vertices_um)?;
+        let com = spec.com_um.map_or_else(|| poly.centroid(), |[x, y]| Vec2::new(x, y));
+        if !poly.contains(&com, 0.0) {
+            return Err(Error::invalid("part", "com_um lies outside the part"));
+        }
+        Ok(Part { polygon: poly.translated(&-com) })
+    }
+}
+
+impl From<Part> for PartSpec {
+    fn from(p: Part) -> Self {
+        PartSpec { vertices_um: p.polygon.into(), com_um: None }
+    }
+}
+
+impl Part {
+    /// A part whose COM is the polygon's area centroid.
+    pub fn from_polygon(polygon: &ConvexPolygon) -> Self {
+        Part { polygon: polygon.translated(&-polygon.centroid()) }
+    }
+
+    /// The paper's default peg, 1615 × 985 µm, long axis along body x.
+    pub fn default_peg() -> Self {
+        Part::from_polygon(
+            &ConvexPolygon::rectangle(PEG_LENGTH_UM, PEG_WIDTH_UM).expect("constant rectangle"),
+        )
+    }
+
+    /// The outline in the body frame (COM at the origin).
+    pub fn polygon(&self) -> &ConvexPolygon {
+        &self.polygon
+    }
+
+    /// A characteristic length (the largest vertex radius), µm; scales rotations to lengths.
+    pub fn char_length_um(&self) -> f64 {
+        self.polygon.vertices().iter().map(|v| v.norm()).fold(0.0, f64::max)
+    }
+}
+
+/// Everything the simulator needs to know about the physics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Model {
+    /// The pushed part.
+    pub part: Part,
+    /// Three-point support distribution and surface friction.
+    pub support: SupportDistribution,
+    /// Probe–part friction coefficient. Default 0.8 (the paper's choice).
+    pub mu_probe: f64,
+    /// Part–fixture friction coefficient. Default 0.25.
+    pub mu_wall: f64,
+    /// Probe tip radius, µm (0 allowed). Default 12.5 (a 25 µm tip).
+    pub probe_radius_um: f64,
+    /// Effects beyond the nominal model (`[effects]` table; see [`crate::effects`]). Absent
+    /// from a TOML = all off, and then results are bit-identical to the nominal model's.
+    #[serde(default, skip_serializing_if = "Effects::is_none")]
+    pub effects: Effects,
+}
+
+impl Default for Model {
+    fn default() -> Self {
+        Self {
+            part: Part::default_peg(),
+            // The nominal support found with the fixture reconstruction (docs/fixture.md).
+            support: SupportDistribution {
+                points_um: [[-250.0, 440.0], [50.0, -330.0], [250.0, 60.0]],
+                mu_surface: [0.3; 3],
+            },
+            mu_probe: 0.8,
+            mu_wall: 0.25,
+            probe_radius_um: 12.5,
+            effects: Effects::default(),
+        }
+    }
+}
+
+impl Model {
+    /// Checks every field; returns the support normal forces (weights) on success.
+    pub fn validate(&self) -> Result<[f64; 3], Error> {
+        for (name, v) in [("mu_probe", self.mu_probe), ("mu_wall", self.mu_wall)] {
+            if !(v.is_finite() && (0.0..=2.0).contains(&v)) {
+                return Err(Error::invalid("model", format!("{name} = {v} must be within [0, 2]")));
+            }
+        }
+        let r = self.probe_radius_um;
+        if !(r.is_finite() && (0.0..=500.0).contains(&r)) {
+            return Err(Error::invalid(
+                "model",
+                format!("probe_radius_um = {r} must be in [0, 500]"),
+            ));
+        }
+        self.effects.validate()?;
+        self.support.validate(self.part.polygon())
+    }
+
+    /// Loads and validates a model TOML.
+    pub fn load(path: &Path) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let model: Model = toml::from_str(&text)
+            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
+        model.validate()?;
+        Ok(model)
+    }
+
+    /// Writes the model as TOML.
+    pub fn save(&self, path: &Path) -> Result<(), Error> {
+        let text = toml::to_string_pretty(self)
+            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
+        std::fs::write(path, text).map_err(|e| Error::io(path, e))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_model_is_valid_and_round_trips_through_toml() {
+        let m = Model::default();
+        m.validate().unwrap();
+        let text = toml::to_string_pretty(&m).unwrap();
+        let back: Model = toml::from_str(&text).unwrap();
+        assert_eq!(back, m);
+    }
+
+    #[test]
+    fn part_is_recentred_on_its_centroid() {
+        let spec = "vertices_um = [[0,0],[200,0],[300,100],[200,200],[0,200]]";
+        let part: Part = toml::from_str(spec).unwrap();
+        assert!(part.polygon().centroid().norm() < 1e-9);
+    }
+
+    #[test]
+    fn bad_friction_is_named() {
+        let m = Model { mu_probe: -0.1, ..Model::default() };
+        assert!(m.validate().unwrap_err().to_string().contains("mu_probe"));
+    }
+}

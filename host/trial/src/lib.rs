@@ -1,0 +1,44 @@
+//! Trial logs: one directory per trial, the measured data every later stage reads
+//! (identification, diagnosis, batch reports). The format is documented, versioned and
+//! pandas-friendly (`docs/trial-log.md`): `trial.json` metadata, `probe.csv`, `frames.csv`,
+//! `events.csv`, `pose.csv`, and the frames as PNG under `frames/`.
+//!
+//! Time: every `t_us` column is microseconds in the executor's time base since the trial's
+//! start (the moment the executor started streaming); lengths in µm, angles in rad.
+//!
+//! May depend on: `mesopush-core`, `mesopush-sim` (the part, plan and fixture a trial
+//! records), `mesopush-vision` (its calibration) and the executor's recording schema. Never on
+//! identification, planning, diagnosis, the rig or batches, which all read trial logs.
+
+pub mod error;
+pub mod meta;
+pub mod reader;
+pub mod records;
+pub mod writer;
+
+pub use error::Error;
+pub use meta::{CalibrationRecord, Outcome, TrialMeta, TrialState};
+pub use reader::Trial;
+pub use records::{EventRow, FrameRow, PoseRow, ProbeRow};
+pub use writer::TrialWriter;
+
+/// The format's name in `trial.json`.
+pub const FORMAT: &str = "mesopush-trial";
+/// The format version this build writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// File names inside a trial directory.
+pub mod files {
+    /// Metadata.
+    pub const META: &str = "trial.json";
+    /// Probe positions.
+    pub const PROBE: &str = "probe.csv";
+    /// Camera frames.
+    pub const FRAMES: &str = "frames.csv";
+    /// Events (faults, aborts, verdicts).
+    pub const EVENTS: &str = "events.csv";
+    /// Tracked peg poses.
+    pub const POSE: &str = "pose.csv";
+    /// Directory of PNG frames.
+    pub const FRAME_DIR: &str = "frames";
+}
