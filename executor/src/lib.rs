@@ -26,6 +26,8 @@ pub mod flash;
 pub mod io;
 pub mod machine;
 pub mod plan;
+#[cfg(feature = "std")]
+pub mod recording;
 pub mod safety;
 #[cfg(feature = "std")]
 pub mod shell;
@@ -36,7 +38,7 @@ pub mod sync;
 pub use camera::{CameraFrame, FrameStamper, StampedFrame};
 pub use clock::{Clock, ManualClock};
 pub use config::{ExecutorConfig, Workspace};
-pub use error::{ExecError, StoreError};
+pub use error::{ExecError, RtCause, RtStep, StoreError};
 pub use io::{Input, LogEvent, MIN_FREE_OUTPUTS, Output, Outputs, Refusal};
 pub use machine::Executor;
 pub use safety::SafetyViolation;

@@ -16,6 +16,7 @@
 
 #[cfg(unix)]
 pub mod camera_source;
+pub mod fsx;
 pub mod port;
 #[cfg(unix)]
 pub mod record;

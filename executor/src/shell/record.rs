@@ -15,14 +15,19 @@
 //! pose.csv) once `recording.json` exists. Log records outside a trial are printed to stdout.
 
 use super::camera_source::FrameImage;
+use super::fsx::write_atomic;
 use crate::LogEvent;
 use crate::camera::{SeqCheck, StampSource, StampedFrame};
 use crate::clock::{Clock, MonotonicClock};
+use crate::recording::{
+    EventRow, FrameRow, RECORDING_FORMAT, RECORDING_FORMAT_VERSION, Recording, files,
+};
 use crossbeam_channel::{Receiver, select};
 use mesopush_protocol::host::{TrialEvent, TrialEventKind};
+use mesopush_protocol::units::nm_to_um;
 use std::collections::VecDeque;
 use std::fs::{self, File};
-use std::io::{self, BufWriter, Write};
+use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 use std::string::{String, ToString};
 use std::sync::Arc;
@@ -31,8 +36,6 @@ use std::{format, println};
 
 /// Images kept while their stamped frame is on its way through the loop.
 const PENDING_IMAGES: usize = 16;
-/// The raw recording's marker file.
-pub const RECORDING_JSON: &str = "recording.json";
 
 /// Where and how to record.
 #[derive(Debug, Clone)]
@@ -54,8 +57,8 @@ struct TrialRec {
     dir: PathBuf,
     t0_us: u64,
     plan_id: u32,
-    frames: BufWriter<File>,
-    events: BufWriter<File>,
+    frames: csv::Writer<File>,
+    events: csv::Writer<File>,
     index: u64,
     recorded: u64,
     gap_dropped: u64,
@@ -76,18 +79,6 @@ impl core::fmt::Debug for TrialRec {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("TrialRec").field("dir", &self.dir).finish_non_exhaustive()
     }
-}
-
-fn csv_text(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
-fn opt<T: core::fmt::Display>(v: Option<T>) -> String {
-    v.map_or_else(String::new, |v| v.to_string())
 }
 
 impl ExecRecorder {
@@ -167,17 +158,12 @@ impl ExecRecorder {
         self.close(false)?;
         let Some(c) = &self.config else { return Ok(()) };
         let dir = c.root.join(trial_dir_name(t.plan_id, t.exec_time_us));
-        fs::create_dir_all(dir.join("frames"))?;
-        let create = |name: &str, header: &str| -> io::Result<BufWriter<File>> {
-            let mut w = BufWriter::new(File::create(dir.join(name))?);
-            writeln!(w, "{header}")?;
-            Ok(w)
+        fs::create_dir_all(dir.join(files::FRAME_DIR))?;
+        let create = |name: &str| -> io::Result<csv::Writer<File>> {
+            Ok(csv::Writer::from_writer(File::create(dir.join(name))?))
         };
-        let frames = create(
-            "frames.csv",
-            "index,frame_seq,t_capture_us,t_arrival_us,stamp_source,dropped,black,probe_x_um,probe_y_um,file",
-        )?;
-        let events = create("events.csv", "t_us,kind,detail")?;
+        let frames = create(files::FRAMES)?;
+        let events = create(files::EVENTS)?;
         self.trial = Some(TrialRec {
             dir,
             t0_us: t.exec_time_us,
@@ -195,8 +181,9 @@ impl ExecRecorder {
 
     fn event(&mut self, t_us: u64, kind: &str, detail: &str) -> io::Result<()> {
         let Some(rec) = self.trial.as_mut() else { return Ok(()) };
-        let rel = t_us as i64 - rec.t0_us as i64;
-        writeln!(rec.events, "{rel},{kind},{}", csv_text(detail))?;
+        let t_us = t_us as i64 - rec.t0_us as i64;
+        let row = EventRow { t_us, kind: kind.to_string(), detail: detail.to_string() };
+        rec.events.serialize(row).map_err(io::Error::other)?;
         rec.events.flush()
     }
 
@@ -210,7 +197,9 @@ impl ExecRecorder {
         if let SeqCheck::Gap { dropped } = f.seq {
             for i in 0..dropped {
                 let seq = f.stamp.frame_seq.wrapping_sub(dropped - i);
-                writeln!(rec.frames, "{},{seq},,,,true,false,,,", rec.index)?;
+                rec.frames
+                    .serialize(FrameRow::dropped(rec.index, seq))
+                    .map_err(io::Error::other)?;
                 rec.index += 1;
             }
             rec.gap_dropped += u64::from(dropped);
@@ -229,18 +218,19 @@ impl ExecRecorder {
             StampSource::Driver => "driver",
             StampSource::Arrival => "arrival",
         };
-        let probe_x = f64::from(f.stamp.probe_x_nm) / 1000.0 - origin.0;
-        let probe_y = f64::from(f.stamp.probe_y_nm) / 1000.0 - origin.1;
-        writeln!(
-            rec.frames,
-            "{index},{},{},{},{source},{},{},{probe_x},{probe_y},{}",
-            f.stamp.frame_seq,
-            rel(f.stamp.frame_stamp_us),
-            opt(image.as_ref().map(|i| rel(i.arrival_us))),
-            missing && !f.black,
-            f.black,
-            opt(file),
-        )?;
+        let row = FrameRow {
+            index,
+            frame_seq: f.stamp.frame_seq,
+            t_capture_us: Some(rel(f.stamp.frame_stamp_us)),
+            t_arrival_us: image.as_ref().map(|i| rel(i.arrival_us)),
+            stamp_source: source.to_string(),
+            dropped: missing && !f.black,
+            black: f.black,
+            probe_x_um: Some(nm_to_um(f.stamp.probe_x_nm) - origin.0),
+            probe_y_um: Some(nm_to_um(f.stamp.probe_y_nm) - origin.1),
+            file,
+        };
+        rec.frames.serialize(row).map_err(io::Error::other)?;
         if index % 32 == 0 {
             rec.frames.flush()?;
         }
@@ -258,21 +248,21 @@ impl ExecRecorder {
             Some((t, k)) => (format!("{k:?}"), Some(t as i64 - rec.t0_us as i64)),
             None => ("none".to_string(), None),
         };
-        let json = serde_json::json!({
-            "format": "mesopush-exec-recording",
-            "format_version": 1,
-            "plan_id": rec.plan_id,
-            "t0_exec_us": rec.t0_us,
-            "exec_epoch_mono_us": self.clock.epoch_mono_us(),
-            "end": end_kind,
-            "end_t_us": end_t_us,
-            "complete": complete,
-            "frames": rec.recorded,
-            "dropped_frames": rec.gap_dropped,
-            "images_missing": rec.images_missing,
-        });
-        let text = serde_json::to_string_pretty(&json).map_err(io::Error::other)?;
-        write_atomic(&rec.dir.join(RECORDING_JSON), text.as_bytes())?;
+        let recording = Recording {
+            format: RECORDING_FORMAT.to_string(),
+            format_version: RECORDING_FORMAT_VERSION,
+            plan_id: rec.plan_id,
+            t0_exec_us: rec.t0_us,
+            exec_epoch_mono_us: self.clock.epoch_mono_us(),
+            end: end_kind,
+            end_t_us,
+            complete,
+            frames: rec.recorded,
+            dropped_frames: rec.gap_dropped,
+            images_missing: rec.images_missing,
+        };
+        let text = serde_json::to_string_pretty(&recording).map_err(io::Error::other)?;
+        write_atomic(&rec.dir.join(files::RECORDING_JSON), text.as_bytes())?;
         println!("recorded {} ({} frames)", rec.dir.display(), rec.recorded);
         Ok(())
     }
@@ -287,17 +277,4 @@ fn write_png(dir: &Path, index: u64, img: &FrameImage) -> io::Result<String> {
         .write_image(&img.pixels, img.width_px, img.height_px, image::ExtendedColorType::L8)
         .map_err(io::Error::other)?;
     Ok(rel)
-}
-
-/// Writes `bytes` to `path` atomically: a temporary beside it, fsync, rename, fsync the dir.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    let tmp = path.with_extension("tmp");
-    let mut f = File::create(&tmp)?;
-    f.write_all(bytes)?;
-    f.sync_all()?;
-    fs::rename(&tmp, path)?;
-    if let Some(dir) = path.parent() {
-        File::open(dir)?.sync_all()?;
-    }
-    Ok(())
 }

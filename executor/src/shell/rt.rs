@@ -8,6 +8,7 @@
 //! dependencies (`rustix` has none for `pthread_setschedparam`).
 #![allow(unsafe_code)]
 
+use crate::error::{ExecError, RtCause, RtStep};
 use std::format;
 use std::string::{String, ToString};
 use std::vec::Vec;
@@ -42,36 +43,55 @@ pub fn apply(opts: &RtOptions) -> RtApplied {
     if opts.lock_memory {
         match lock_memory() {
             Ok(()) => applied.memory_locked = true,
-            Err(e) => applied.refused.push(format!("mlockall: {e}")),
+            Err(e) => applied.refused.push(describe(&e)),
         }
     }
     if let Some(cpu) = opts.pin_cpu {
         match pin_current_thread(cpu) {
             Ok(()) => applied.pinned_cpu = Some(cpu),
-            Err(e) => applied.refused.push(format!("pin to CPU {cpu}: {e}")),
+            Err(e) => applied.refused.push(describe(&e)),
         }
     }
     if let Some(prio) = opts.fifo_priority {
         match set_fifo_priority(prio) {
             Ok(()) => applied.fifo_priority = Some(prio),
-            Err(e) => applied.refused.push(format!("SCHED_FIFO priority {prio}: {e}")),
+            Err(e) => applied.refused.push(describe(&e)),
         }
     }
     applied
 }
 
+/// A refusal in words, with the OS's own text for its error codes.
+pub fn describe(e: &ExecError) -> String {
+    match e {
+        ExecError::RealTime { step, cause: RtCause::Os(errno) } => {
+            format!("{step}: {}", std::io::Error::from_raw_os_error(*errno))
+        }
+        other => other.to_string(),
+    }
+}
+
+fn refused(step: RtStep, cause: RtCause) -> ExecError {
+    ExecError::RealTime { step, cause }
+}
+
 #[cfg(target_os = "linux")]
-fn lock_memory() -> Result<(), String> {
+fn last_os_error(step: RtStep) -> ExecError {
+    refused(step, RtCause::Os(std::io::Error::last_os_error().raw_os_error().unwrap_or(0)))
+}
+
+#[cfg(target_os = "linux")]
+fn lock_memory() -> Result<(), ExecError> {
     // SAFETY: plain system call without pointers.
     let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
-    if rc == 0 { Ok(()) } else { Err(std::io::Error::last_os_error().to_string()) }
+    if rc == 0 { Ok(()) } else { Err(last_os_error(RtStep::LockMemory)) }
 }
 
 /// Pins the calling thread to `cpu`.
 #[cfg(target_os = "linux")]
-pub fn pin_current_thread(cpu: usize) -> Result<(), String> {
+pub fn pin_current_thread(cpu: usize) -> Result<(), ExecError> {
     if cpu >= libc::CPU_SETSIZE as usize {
-        return Err(format!("CPU index above {}", libc::CPU_SETSIZE - 1));
+        return Err(refused(RtStep::PinCpu { cpu }, RtCause::OutOfRange { allowed: "0..1024" }));
     }
     // SAFETY: `set` is a plain bit set initialised by CPU_ZERO; pid 0 is the calling thread.
     let rc = unsafe {
@@ -80,34 +100,35 @@ pub fn pin_current_thread(cpu: usize) -> Result<(), String> {
         libc::CPU_SET(cpu, &mut set);
         libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
     };
-    if rc == 0 { Ok(()) } else { Err(std::io::Error::last_os_error().to_string()) }
+    if rc == 0 { Ok(()) } else { Err(last_os_error(RtStep::PinCpu { cpu })) }
 }
 
 #[cfg(target_os = "linux")]
-fn set_fifo_priority(prio: i32) -> Result<(), String> {
+fn set_fifo_priority(prio: i32) -> Result<(), ExecError> {
+    let step = RtStep::FifoPriority { priority: prio };
     if !(1..=99).contains(&prio) {
-        return Err("priority must be 1..=99".into());
+        return Err(refused(step, RtCause::OutOfRange { allowed: "1..=99" }));
     }
     let param = libc::sched_param { sched_priority: prio };
     // SAFETY: `param` outlives the call; pthread_self is the calling thread.
     let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
-    if rc == 0 { Ok(()) } else { Err(std::io::Error::from_raw_os_error(rc).to_string()) }
+    if rc == 0 { Ok(()) } else { Err(refused(step, RtCause::Os(rc))) }
 }
 
 #[cfg(not(target_os = "linux"))]
-fn lock_memory() -> Result<(), String> {
-    Err("only on Linux".into())
+fn lock_memory() -> Result<(), ExecError> {
+    Err(refused(RtStep::LockMemory, RtCause::Unsupported))
 }
 
 /// Pins the calling thread to `cpu` (Linux only).
 #[cfg(not(target_os = "linux"))]
-pub fn pin_current_thread(_cpu: usize) -> Result<(), String> {
-    Err("only on Linux".into())
+pub fn pin_current_thread(cpu: usize) -> Result<(), ExecError> {
+    Err(refused(RtStep::PinCpu { cpu }, RtCause::Unsupported))
 }
 
 #[cfg(not(target_os = "linux"))]
-fn set_fifo_priority(_prio: i32) -> Result<(), String> {
-    Err("only on Linux".into())
+fn set_fifo_priority(priority: i32) -> Result<(), ExecError> {
+    Err(refused(RtStep::FifoPriority { priority }, RtCause::Unsupported))
 }
 
 #[cfg(test)]

@@ -7,8 +7,9 @@
 
 use super::{PlanStore, STORED_HEADER_LEN, decode_header, encode_header};
 use crate::error::StoreError;
+use crate::shell::fsx::{tmp_path, write_atomic_with};
 use mesopush_protocol::flash::FlashHeader;
-use std::fs::{self, File};
+use std::fs::File;
 use std::io::{ErrorKind, Read, Write};
 use std::path::{Path, PathBuf};
 
@@ -31,21 +32,14 @@ impl FileStore {
 
     /// The temporary file a save writes first.
     pub fn tmp_path(&self) -> PathBuf {
-        let mut name = self.path.file_name().unwrap_or_default().to_os_string();
-        name.push(".tmp");
-        self.path.with_file_name(name)
+        tmp_path(&self.path)
     }
 
     fn write_atomically(&self, header: &FlashHeader, image: &[u8]) -> std::io::Result<()> {
-        let tmp = self.tmp_path();
-        let mut file = File::create(&tmp)?;
-        file.write_all(&encode_header(header))?;
-        file.write_all(image)?;
-        file.sync_all()?;
-        drop(file);
-        fs::rename(&tmp, &self.path)?;
-        let dir = self.path.parent().filter(|p| !p.as_os_str().is_empty());
-        File::open(dir.unwrap_or(Path::new(".")))?.sync_all()
+        write_atomic_with(&self.path, |file| {
+            file.write_all(&encode_header(header))?;
+            file.write_all(image)
+        })
     }
 }
 

@@ -33,12 +33,7 @@ pub mod files {
     pub const META: &str = "trial.json";
     /// Probe positions.
     pub const PROBE: &str = "probe.csv";
-    /// Camera frames.
-    pub const FRAMES: &str = "frames.csv";
-    /// Events (faults, aborts, verdicts).
-    pub const EVENTS: &str = "events.csv";
+    pub use mesopush_executor::recording::files::{EVENTS, FRAME_DIR, FRAMES, RECORDING_JSON};
     /// Tracked peg poses.
     pub const POSE: &str = "pose.csv";
-    /// Directory of PNG frames.
-    pub const FRAME_DIR: &str = "frames";
 }

@@ -1,6 +1,9 @@
 //! The rows of a trial's CSV files. Column names are the field names; empty cells are
-//! missing values (pandas reads them as NaN).
+//! missing values (pandas reads them as NaN). `frames.csv` and `events.csv` are the
+//! executor's recording ([`mesopush_executor::recording`], defined once there); `probe.csv`
+//! and `pose.csv` are the host's.
 
+pub use mesopush_executor::recording::{EventRow, FrameRow};
 use serde::{Deserialize, Serialize};
 
 /// `probe.csv`: the probe, commanded (the executor's setpoint schedule) and as the
@@ -17,42 +20,6 @@ pub struct ProbeRow {
     pub rep_x_um: Option<f64>,
     /// Reported probe y, µm.
     pub rep_y_um: Option<f64>,
-}
-
-/// `frames.csv`: one row per camera frame, received or detected as dropped.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct FrameRow {
-    /// Row index (0, 1, 2, ... in arrival order).
-    pub index: u64,
-    /// The camera's frame counter.
-    pub frame_seq: u32,
-    /// Capture (exposure) time, µs since the trial's start; empty for dropped frames.
-    pub t_capture_us: Option<i64>,
-    /// Arrival time at the executor, µs since the trial's start; empty for dropped frames.
-    pub t_arrival_us: Option<i64>,
-    /// Where `t_capture_us` came from: `driver` (the source's own stamp) or `arrival`.
-    pub stamp_source: String,
-    /// The frame was lost (a gap in `frame_seq`, or the recorder fell behind).
-    pub dropped: bool,
-    /// The frame arrived but was black (no image).
-    pub black: bool,
-    /// Probe x at the capture instant, as the executor estimated it, µm.
-    pub probe_x_um: Option<f64>,
-    /// Probe y at the capture instant, µm.
-    pub probe_y_um: Option<f64>,
-    /// PNG file relative to the trial directory; empty when not stored.
-    pub file: Option<String>,
-}
-
-/// `events.csv`: faults, aborts, verdicts and anything else worth a line.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct EventRow {
-    /// Time since the trial's start, µs.
-    pub t_us: i64,
-    /// Short kind, e.g. `started`, `done`, `fault`, `frame_dropped`, `verdict`.
-    pub kind: String,
-    /// Free text.
-    pub detail: String,
 }
 
 /// `pose.csv`: the tracked peg pose per frame.
