@@ -1,12 +1,12 @@
 //! Reassembles a plan image from flash chunks into a staging buffer.
 //!
-//! The previously accepted plan lives elsewhere ([`crate::plan::Plan`] in the executor) and
+//! The previously accepted plan lives elsewhere ([`crate::plan::FlashedPlan`] in the executor) and
 //! is not touched while an upload is in progress: a corrupt or truncated upload is rejected
 //! and the old plan stays. Checks, in order: header ([`FlashHeader::check`] against the plan
 //! memory `CAP`), each chunk (plan id, offset = bytes so far, not past the declared length),
 //! then at commit the whole image ([`FlashHeader::verify_image`]: length, then CRC-32).
 
-use crate::plan::Plan;
+use crate::plan::FlashedPlan;
 use heapless::Vec;
 use mesopush_protocol::flash::{FlashChunk, FlashHeader, FlashRejectReason};
 
@@ -76,7 +76,7 @@ impl<const CAP: usize> FlashSession<CAP> {
     }
 
     /// Verifies the whole image and hands it over as a plan; the session is over either way.
-    pub fn commit(&mut self, plan_id: u32) -> Result<Plan<CAP>, FlashRejectReason> {
+    pub fn commit(&mut self, plan_id: u32) -> Result<FlashedPlan<CAP>, FlashRejectReason> {
         let header = self.header.take().ok_or(FlashRejectReason::NoFlashInProgress)?;
         let image = core::mem::take(&mut self.staging);
         if plan_id != header.plan_id {
@@ -85,7 +85,7 @@ impl<const CAP: usize> FlashSession<CAP> {
                 got_plan_id: plan_id,
             });
         }
-        Plan::from_verified(header, image)
+        FlashedPlan::from_verified(header, image)
     }
 
     /// Drops the upload in progress.

@@ -25,7 +25,7 @@ use crate::camera::FrameStamper;
 use crate::config::ExecutorConfig;
 use crate::error::ExecError;
 use crate::io::{Input, LogEvent, MIN_FREE_OUTPUTS, Output, Outputs};
-use crate::plan::Plan;
+use crate::plan::FlashedPlan;
 use crate::store::{PlanStore, load_plan};
 use crate::stream::{StreamPoll, Streamer};
 use crate::sync::ClockSync;
@@ -46,7 +46,7 @@ pub struct Executor<S, const CAP: usize, const LA: usize> {
     state: ExecState,
     state_before_flash: ExecState,
     hello_ok: bool,
-    plan: Option<Plan<CAP>>,
+    plan: Option<FlashedPlan<CAP>>,
     flash: crate::flash::FlashSession<CAP>,
     sync: ClockSync,
     stream: Option<Streamer<LA>>,
@@ -115,7 +115,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
     }
 
     /// The stored plan.
-    pub fn plan(&self) -> Option<&Plan<CAP>> {
+    pub fn plan(&self) -> Option<&FlashedPlan<CAP>> {
         self.plan.as_ref()
     }
 

@@ -10,12 +10,12 @@ use mesopush_protocol::flash::{FlashHeader, FlashRejectReason, PLAN_STEP_LEN_BYT
 
 /// A verified plan: its header and image, at most `CAP` bytes.
 #[derive(Debug, Clone)]
-pub struct Plan<const CAP: usize> {
+pub struct FlashedPlan<const CAP: usize> {
     header: FlashHeader,
     image: Vec<u8, CAP>,
 }
 
-impl<const CAP: usize> Plan<CAP> {
+impl<const CAP: usize> FlashedPlan<CAP> {
     /// Wraps `image` once [`FlashHeader::verify_image`] accepts it.
     pub fn from_verified(
         header: FlashHeader,

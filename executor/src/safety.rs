@@ -8,7 +8,7 @@
 //! vertices stay inside).
 
 use crate::config::ExecutorConfig;
-use crate::plan::{Plan, StepGeometry, hypot_nm};
+use crate::plan::{FlashedPlan, StepGeometry, hypot_nm};
 use mesopush_protocol::flash::PlanStep;
 
 /// Why a plan is unsafe to run.
@@ -64,7 +64,7 @@ pub enum SafetyViolation {
 
 /// Speeds, accelerations and extent of `plan`, start position unknown.
 pub fn check_plan<const CAP: usize>(
-    plan: &Plan<CAP>,
+    plan: &FlashedPlan<CAP>,
     config: &ExecutorConfig,
 ) -> Result<(), SafetyViolation> {
     let rate_hz = u64::from(config.setpoint_rate_hz.clamp(1, 1000));
@@ -91,7 +91,7 @@ pub fn check_plan<const CAP: usize>(
 
 /// Every vertex of the path from `start_nm` inside the workspace.
 pub fn check_from_start<const CAP: usize>(
-    plan: &Plan<CAP>,
+    plan: &FlashedPlan<CAP>,
     config: &ExecutorConfig,
     start_nm: (i32, i32),
 ) -> Result<(), SafetyViolation> {

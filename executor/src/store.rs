@@ -8,7 +8,7 @@
 //! A failed save leaves the previously stored plan intact.
 
 use crate::error::StoreError;
-use crate::plan::Plan;
+use crate::plan::FlashedPlan;
 use heapless::Vec;
 use mesopush_protocol::flash::FlashHeader;
 
@@ -53,12 +53,12 @@ pub fn decode_header(bytes: &[u8; STORED_HEADER_LEN]) -> FlashHeader {
 /// Loads and re-verifies the stored plan, if any.
 pub fn load_plan<const CAP: usize>(
     store: &mut impl PlanStore,
-) -> Result<Option<Plan<CAP>>, StoreError> {
+) -> Result<Option<FlashedPlan<CAP>>, StoreError> {
     let mut image: Vec<u8, CAP> = Vec::new();
     image.resize(CAP, 0).map_err(|_| StoreError::TooLarge)?;
     let Some((header, len)) = store.load(&mut image)? else { return Ok(None) };
     image.truncate(len);
-    Plan::from_verified(header, image).map(Some).map_err(|_| StoreError::Corrupt)
+    FlashedPlan::from_verified(header, image).map(Some).map_err(|_| StoreError::Corrupt)
 }
 
 /// A plan store in RAM holding at most `CAP` image bytes.

@@ -11,7 +11,7 @@
 //! `underrun_margin_us` before its start is an underrun: the controller's queue would run dry.
 
 use crate::config::ExecutorConfig;
-use crate::plan::{Plan, StepGeometry, hypot_nm, lerp_nm};
+use crate::plan::{FlashedPlan, StepGeometry, hypot_nm, lerp_nm};
 use heapless::Deque;
 use mesopush_protocol::ctrl::MoveSegment;
 
@@ -62,7 +62,7 @@ impl<const LA: usize> Streamer<LA> {
     /// A trial of `plan` from `start_nm`, first segment starting at `t0_ctrl_us`, segment ids
     /// from `first_segment_id`. `ctrl_capacity` is the controller queue size last reported.
     pub fn new<const CAP: usize>(
-        plan: &Plan<CAP>,
+        plan: &FlashedPlan<CAP>,
         config: &ExecutorConfig,
         start_nm: (i32, i32),
         t0_ctrl_us: u64,
@@ -125,7 +125,7 @@ impl<const LA: usize> Streamer<LA> {
     /// What to do at controller time `now_ctrl_us`.
     pub fn poll<const CAP: usize>(
         &mut self,
-        plan: &Plan<CAP>,
+        plan: &FlashedPlan<CAP>,
         config: &ExecutorConfig,
         now_ctrl_us: u64,
     ) -> StreamPoll {
@@ -203,7 +203,7 @@ impl<const LA: usize> Streamer<LA> {
         None
     }
 
-    fn generate<const CAP: usize>(&mut self, plan: &Plan<CAP>) -> (MoveSegment, u32, u64) {
+    fn generate<const CAP: usize>(&mut self, plan: &FlashedPlan<CAP>) -> (MoveSegment, u32, u64) {
         let k = self.next_k;
         self.next_k += 1;
         let start_rel = (k - 1) * self.period_us;
@@ -225,7 +225,11 @@ impl<const LA: usize> Streamer<LA> {
     }
 
     /// Path position `rel_us` after the start; advances the cursor (times never decrease).
-    fn position_at<const CAP: usize>(&mut self, plan: &Plan<CAP>, rel_us: u64) -> (i64, i64) {
+    fn position_at<const CAP: usize>(
+        &mut self,
+        plan: &FlashedPlan<CAP>,
+        rel_us: u64,
+    ) -> (i64, i64) {
         loop {
             let c = &mut self.cursor;
             let Some(g) = c.geometry else { return c.step_start_nm };
@@ -256,13 +260,13 @@ mod tests {
     use super::*;
     use mesopush_protocol::flash::{FlashHeader, PlanStep};
 
-    fn plan(steps: &[PlanStep]) -> Plan<120> {
+    fn plan(steps: &[PlanStep]) -> FlashedPlan<120> {
         let mut image = heapless::Vec::<u8, 120>::new();
         for s in steps {
             image.extend_from_slice(&s.to_image_bytes()).unwrap();
         }
         let header = FlashHeader::for_image(1, &image).unwrap();
-        Plan::from_verified(header, image).unwrap()
+        FlashedPlan::from_verified(header, image).unwrap()
     }
 
     /// 2.1 µm at 140 µm/s = 15 ms: a 10 ms segment and a 5 ms one; the schedule

@@ -3,7 +3,7 @@
 //! gets verdict `error` (and the missing data is counted as lost) — a failure is never
 //! reported as a success on the runner's word alone.
 
-use super::runner::{TrialResult, Verdict};
+use super::runner::{TrialResult, TrialVerdict};
 use mesopush_trial::{Trial, TrialState};
 use std::path::Path;
 
@@ -20,7 +20,7 @@ pub fn state_of(dir: &Path) -> String {
 
 fn downgrade(mut r: TrialResult, why: String, lost: u64) -> TrialResult {
     r.reason = format!("{why} (runner said: {} — {})", r.verdict.as_str(), r.reason);
-    r.verdict = Verdict::Error;
+    r.verdict = TrialVerdict::Error;
     r.records_lost += lost;
     r
 }
@@ -28,11 +28,11 @@ fn downgrade(mut r: TrialResult, why: String, lost: u64) -> TrialResult {
 /// Checks `result` against the log in `dir`; returns it, or a downgraded copy.
 pub fn against_log(dir: &Path, result: TrialResult) -> TrialResult {
     let v = result.verdict;
-    if v == Verdict::Timeout {
+    if v == TrialVerdict::Timeout {
         return result;
     }
     if !dir.exists() {
-        if v == Verdict::Error {
+        if v == TrialVerdict::Error {
             return result;
         }
         return downgrade(result, "no trial log was written".into(), 1);
@@ -42,17 +42,17 @@ pub fn against_log(dir: &Path, result: TrialResult) -> TrialResult {
         Err(e) => return downgrade(result, format!("trial log unreadable: {e}"), 1),
     };
     let o = &trial.meta.outcome;
-    if v == Verdict::Error {
+    if v == TrialVerdict::Error {
         return result;
     }
     if o.state == TrialState::Incomplete {
         return downgrade(result, "trial log left incomplete".into(), 1);
     }
     let agrees = match v {
-        Verdict::Inserted => o.state == TrialState::Done && o.inserted == Some(true),
-        Verdict::Missed => o.state == TrialState::Done && o.inserted != Some(true),
-        Verdict::Faulted => matches!(o.state, TrialState::Faulted | TrialState::Aborted),
-        Verdict::Timeout | Verdict::Error => true,
+        TrialVerdict::Inserted => o.state == TrialState::Done && o.inserted == Some(true),
+        TrialVerdict::Missed => o.state == TrialState::Done && o.inserted != Some(true),
+        TrialVerdict::Faulted => matches!(o.state, TrialState::Faulted | TrialState::Aborted),
+        TrialVerdict::Timeout | TrialVerdict::Error => true,
     };
     if !agrees {
         let why = format!(

@@ -9,7 +9,7 @@
 
 use super::check;
 use super::journal::{AttemptRecord, JOURNAL, Journal, Record};
-use super::runner::{RunnerFactory, TrialJob, TrialResult, Verdict};
+use super::runner::{RunnerFactory, TrialJob, TrialResult, TrialVerdict};
 use super::spec::{BatchSpec, attempt_seed, trial_id, trial_seed};
 use super::supervise::Supervisor;
 use crate::Error;
@@ -75,9 +75,35 @@ pub struct BatchConfig {
     pub max_trials: Option<u64>,
 }
 
+impl BatchConfig {
+    /// The run of batch file `batch` the CLI asks for: its plans (resolved against the
+    /// file's directory), the output directory (`out`, else the file's `out`, else
+    /// `runs/batch-<file stem>`; a shard runs in `<out>/shard-I-of-N`), and the factory of
+    /// its trial runners.
+    pub fn from_file(
+        batch: &Path,
+        out: Option<PathBuf>,
+        shard: Shard,
+        max_trials: Option<u64>,
+    ) -> Result<(Self, RunnerFactory), Error> {
+        let spec = BatchSpec::load(batch)?;
+        let base = batch.parent().unwrap_or(Path::new("."));
+        let plans = spec.load_plans(base)?;
+        let stem = batch.file_stem().map_or("batch".into(), |s| s.to_string_lossy().into_owned());
+        let mut out =
+            out.or(spec.out.clone()).unwrap_or(PathBuf::from(format!("runs/batch-{stem}")));
+        if shard != Shard::ALL {
+            out = out.join(shard.dir_name());
+        }
+        let theta_hint_rad = plans.first().map_or(0.0, |p| p.peg_start_pose().theta_rad);
+        let factory = super::factory::runner_factory(&spec, base, theta_hint_rad)?;
+        Ok((Self { spec, plans, out, shard, max_trials }, factory))
+    }
+}
+
 /// Progress after each trial.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Progress {
+pub struct BatchProgress {
     /// Trials with a final record (including earlier sessions').
     pub done: u64,
     /// Trials in the shard.
@@ -149,7 +175,7 @@ fn open_manifest(cfg: &BatchConfig) -> Result<(), Error> {
 /// What the journal says so far.
 #[derive(Debug, Default)]
 struct State {
-    done: BTreeMap<u64, Verdict>,
+    done: BTreeMap<u64, TrialVerdict>,
     next_attempt: BTreeMap<u64, u32>,
 }
 
@@ -199,7 +225,7 @@ fn discard_leftovers(
 pub fn run(
     cfg: &BatchConfig,
     factory: RunnerFactory,
-    on_progress: &mut dyn FnMut(&Progress),
+    on_progress: &mut dyn FnMut(&BatchProgress),
 ) -> Result<Session, Error> {
     let t0 = Instant::now();
     cfg.spec.validate()?;
@@ -215,8 +241,8 @@ pub fn run(
     let mut sup = Supervisor::new(factory)?;
     let plans = Arc::new(cfg.plans.clone());
     let total = (0..cfg.spec.trials).filter(|i| cfg.shard.owns(*i)).count() as u64;
-    let count_ok = |s: &State| s.done.values().filter(|v| **v == Verdict::Inserted).count();
-    let mut progress = Progress {
+    let count_ok = |s: &State| s.done.values().filter(|v| **v == TrialVerdict::Inserted).count();
+    let mut progress = BatchProgress {
         done: session.resumed,
         total,
         succeeded: count_ok(&state) as u64,
@@ -233,7 +259,7 @@ pub fn run(
         state.done.insert(index, verdict);
         session.ran += 1;
         progress.done += 1;
-        progress.succeeded += u64::from(verdict == Verdict::Inserted);
+        progress.succeeded += u64::from(verdict == TrialVerdict::Inserted);
         on_progress(&progress);
     }
     session.restarts = sup.restarts;
@@ -249,7 +275,7 @@ fn run_trial(
     plans: &Arc<Vec<Plan>>,
     index: u64,
     first: u32,
-) -> Result<Verdict, Error> {
+) -> Result<TrialVerdict, Error> {
     let policy = &cfg.spec.policy;
     let seed = trial_seed(cfg.spec.seed, index);
     let start = peg_start(&cfg.spec, plans, seed);

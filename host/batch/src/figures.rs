@@ -3,7 +3,7 @@
 //! by verdict), and the wall time of every trial.
 
 use super::journal::AttemptRecord;
-use super::runner::Verdict;
+use super::runner::TrialVerdict;
 use super::stats::wilson95;
 use crate::Error;
 use mesopush_core::geom::ConvexPolygon;
@@ -13,13 +13,13 @@ use mesopush_sim::fixture::FIELD_UM;
 use plotters::prelude::*;
 use std::path::Path;
 
-fn colour(v: Verdict) -> RGBColor {
+fn colour(v: TrialVerdict) -> RGBColor {
     match v {
-        Verdict::Inserted => RGBColor(30, 140, 60),
-        Verdict::Missed => RGBColor(200, 120, 0),
-        Verdict::Faulted => RGBColor(200, 30, 30),
-        Verdict::Timeout => RGBColor(120, 40, 160),
-        Verdict::Error => RGBColor(20, 20, 20),
+        TrialVerdict::Inserted => RGBColor(30, 140, 60),
+        TrialVerdict::Missed => RGBColor(200, 120, 0),
+        TrialVerdict::Faulted => RGBColor(200, 30, 30),
+        TrialVerdict::Timeout => RGBColor(120, 40, 160),
+        TrialVerdict::Error => RGBColor(20, 20, 20),
     }
 }
 
@@ -42,7 +42,7 @@ pub fn success_over_time(finals: &[&AttemptRecord], path: &Path) -> Result<(), E
         chart.configure_mesh().x_desc("trial index").y_desc("success rate").draw()?;
         let (mut k, mut rate, mut lo, mut hi) = (0u64, vec![], vec![], vec![]);
         for (i, a) in finals.iter().enumerate() {
-            k += u64::from(a.result.verdict == Verdict::Inserted);
+            k += u64::from(a.result.verdict == TrialVerdict::Inserted);
             let n = i as u64 + 1;
             let x = a.index as f64;
             let [l, h] = wilson95(k, n);
@@ -57,7 +57,7 @@ pub fn success_over_time(finals: &[&AttemptRecord], path: &Path) -> Result<(), E
             .label("running success rate")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
         let marks = finals.iter().map(|a| {
-            let y = if a.result.verdict == Verdict::Inserted { 0.99 } else { 0.01 };
+            let y = if a.result.verdict == TrialVerdict::Inserted { 0.99 } else { 0.01 };
             Circle::new((a.index as f64, y), 2, colour(a.result.verdict).filled())
         });
         chart.draw_series(marks)?;
@@ -94,7 +94,7 @@ pub fn final_poses(
             pts.push(pts[0]);
             chart.draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(1))))?;
         }
-        for v in Verdict::ALL {
+        for v in TrialVerdict::ALL {
             let pts: Vec<(f64, f64)> = finals
                 .iter()
                 .filter(|a| a.result.verdict == v)

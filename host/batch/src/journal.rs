@@ -209,7 +209,8 @@ mod tests {
         use rand::{RngExt, SeedableRng};
         let seed = 8;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let mut result = crate::supervise::engine_verdict(crate::Verdict::Inserted, "x".into());
+        let mut result =
+            crate::supervise::engine_verdict(crate::TrialVerdict::Inserted, "x".into());
         let mut text = String::new();
         let mut records = Vec::new();
         for index in 0..5000 {

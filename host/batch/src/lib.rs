@@ -21,10 +21,10 @@ pub mod spec;
 pub mod stats;
 pub mod supervise;
 
-pub use engine::{BatchConfig, Manifest, Progress, Session, run};
+pub use engine::{BatchConfig, BatchProgress, Manifest, Session, run};
 pub use error::Error;
 pub use factory::runner_factory;
 pub use rig_runner::RigRunner;
-pub use runner::{Cancel, RunnerFactory, TrialJob, TrialResult, TrialRunner, Verdict};
+pub use runner::{Cancel, RunnerFactory, TrialJob, TrialResult, TrialRunner, TrialVerdict};
 pub use sim_runner::SimRunner;
 pub use spec::BatchSpec;

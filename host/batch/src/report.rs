@@ -77,11 +77,7 @@ fn write_csv(finals: &[&AttemptRecord], path: &Path) -> Result<(), Error> {
 }
 
 fn percentile(v: &mut [f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * q).round() as usize]
+    mesopush_core::stats::percentile(v, q).unwrap_or(0.0)
 }
 
 fn markdown(b: &Loaded, s: &Summary, finals: &[&AttemptRecord]) -> String {
@@ -150,7 +146,7 @@ fn faults_and_reasons(m: &mut String, s: &Summary) {
     }
     m.push('\n');
     m.push_str("## Failure reasons\n\n| verdict | reason | trials |\n|---|---|---:|\n");
-    for r in s.reasons.iter().filter(|r| r.verdict != super::Verdict::Inserted) {
+    for r in s.reasons.iter().filter(|r| r.verdict != super::TrialVerdict::Inserted) {
         let _ = writeln!(
             m,
             "| {} | {} | {} |",

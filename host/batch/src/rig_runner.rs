@@ -14,9 +14,9 @@
 //! simulated time and unwinds out of the loop (without the panic hook) when raised.
 
 use super::policy::{adapt, nearest_plan};
-use super::runner::{Cancel, TrialJob, TrialResult, TrialRunner, Verdict};
+use super::runner::{Cancel, TrialJob, TrialResult, TrialRunner, TrialVerdict};
 use super::sim_runner::no_start_pose;
-use super::spec::CameraSpec;
+use super::spec::StartCameraSpec;
 use crate::Error;
 use mesopush_rig::start_camera::Camera;
 use mesopush_rig::{ClockMode, FaultCount, TrialReport, TrialSpec, WorldFile, run_trial};
@@ -43,7 +43,7 @@ impl RigRunner {
     /// pre-trial tracker.
     pub fn new(
         mut world: WorldFile,
-        camera: &CameraSpec,
+        camera: &StartCameraSpec,
         theta_hint_rad: f64,
     ) -> Result<Self, Error> {
         world.spec.peg.perturb = None;
@@ -73,9 +73,9 @@ impl RigRunner {
     }
 }
 
-/// Verdict and reason from the loop's report. A miss after a world jam (the peg wedged, the
+/// TrialVerdict and reason from the loop's report. A miss after a world jam (the peg wedged, the
 /// needle bent beyond its limit) says so: `missed, jammed: …`.
-fn verdict(r: &TrialReport) -> (Verdict, String) {
+fn verdict(r: &TrialReport) -> (TrialVerdict, String) {
     let why = r.reason.clone().unwrap_or_default();
     let jam = (r.jams > 0).then(|| {
         format!(
@@ -87,23 +87,25 @@ fn verdict(r: &TrialReport) -> (Verdict, String) {
     });
     match (r.state, jam) {
         (TrialState::Done, _) if r.inserted == Some(true) => {
-            (Verdict::Inserted, "inserted: last tracked pose inside the channel".into())
+            (TrialVerdict::Inserted, "inserted: last tracked pose inside the channel".into())
         }
         (TrialState::Done, None) if r.inserted.is_none() => {
-            (Verdict::Missed, "missed, no tracked final pose: cannot judge".into())
+            (TrialVerdict::Missed, "missed, no tracked final pose: cannot judge".into())
         }
-        (TrialState::Done, Some(j)) if r.inserted.is_none() => {
-            (Verdict::Missed, format!("missed, jammed: {j}; no tracked final pose: cannot judge"))
-        }
+        (TrialState::Done, Some(j)) if r.inserted.is_none() => (
+            TrialVerdict::Missed,
+            format!("missed, jammed: {j}; no tracked final pose: cannot judge"),
+        ),
         (TrialState::Done, None) => {
-            (Verdict::Missed, "missed: last tracked pose outside the channel".into())
+            (TrialVerdict::Missed, "missed: last tracked pose outside the channel".into())
         }
-        (TrialState::Done, Some(j)) => {
-            (Verdict::Missed, format!("missed, jammed: {j}; last tracked pose outside the channel"))
-        }
-        (TrialState::Faulted, _) => (Verdict::Faulted, format!("executor fault: {why}")),
-        (TrialState::Aborted, _) => (Verdict::Faulted, format!("aborted: {why}")),
-        (TrialState::Incomplete, _) => (Verdict::Error, format!("loop did not end: {why}")),
+        (TrialState::Done, Some(j)) => (
+            TrialVerdict::Missed,
+            format!("missed, jammed: {j}; last tracked pose outside the channel"),
+        ),
+        (TrialState::Faulted, _) => (TrialVerdict::Faulted, format!("executor fault: {why}")),
+        (TrialState::Aborted, _) => (TrialVerdict::Faulted, format!("aborted: {why}")),
+        (TrialState::Incomplete, _) => (TrialVerdict::Error, format!("loop did not end: {why}")),
     }
 }
 
@@ -113,7 +115,7 @@ impl TrialRunner for RigRunner {
     }
 
     fn run(&mut self, job: &TrialJob, dir: &Path, cancel: &Cancel) -> Result<TrialResult, Error> {
-        let mut out = super::supervise::engine_verdict(Verdict::Error, String::new());
+        let mut out = super::supervise::engine_verdict(TrialVerdict::Error, String::new());
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(job.attempt_seed ^ 0xca3e);
         let nominal = &job.plans[0];
         let mut plan = nominal.clone();

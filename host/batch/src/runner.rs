@@ -34,7 +34,7 @@ pub struct TrialJob {
 /// How a trial ended, from the batch's point of view. Every trial gets exactly one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Verdict {
+pub enum TrialVerdict {
     /// The plan ran and the peg ended inside the narrow channel.
     Inserted,
     /// The plan ran to its end and the peg is not inside the channel.
@@ -47,19 +47,24 @@ pub enum Verdict {
     Error,
 }
 
-impl Verdict {
+impl TrialVerdict {
     /// All verdicts, in report order.
-    pub const ALL: [Verdict; 5] =
-        [Verdict::Inserted, Verdict::Missed, Verdict::Faulted, Verdict::Timeout, Verdict::Error];
+    pub const ALL: [TrialVerdict; 5] = [
+        TrialVerdict::Inserted,
+        TrialVerdict::Missed,
+        TrialVerdict::Faulted,
+        TrialVerdict::Timeout,
+        TrialVerdict::Error,
+    ];
 
     /// Lower-case name as written in the journal.
     pub fn as_str(self) -> &'static str {
         match self {
-            Verdict::Inserted => "inserted",
-            Verdict::Missed => "missed",
-            Verdict::Faulted => "faulted",
-            Verdict::Timeout => "timeout",
-            Verdict::Error => "error",
+            TrialVerdict::Inserted => "inserted",
+            TrialVerdict::Missed => "missed",
+            TrialVerdict::Faulted => "faulted",
+            TrialVerdict::Timeout => "timeout",
+            TrialVerdict::Error => "error",
         }
     }
 }
@@ -68,7 +73,7 @@ impl Verdict {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrialResult {
     /// The verdict.
-    pub verdict: Verdict,
+    pub verdict: TrialVerdict,
     /// Why (always present: "inserted at depth …", "stall detected at t = …", …).
     pub reason: String,
     /// The start pose the runner estimated from the camera, when it did.

@@ -7,8 +7,8 @@
 //! for Monte-Carlo-style batches.
 
 use super::policy::{adapt, nearest_plan};
-use super::runner::{Cancel, TrialJob, TrialResult, TrialRunner, Verdict};
-use super::spec::CameraSpec;
+use super::runner::{Cancel, TrialJob, TrialResult, TrialRunner, TrialVerdict};
+use super::spec::StartCameraSpec;
 use crate::Error;
 use mesopush_core::geom::Pose;
 use mesopush_rig::FaultCount;
@@ -37,7 +37,7 @@ impl SimRunner {
     pub fn new(
         model: Model,
         fixture: Fixture,
-        camera: &CameraSpec,
+        camera: &StartCameraSpec,
         theta_hint_rad: f64,
         world: serde_json::Value,
     ) -> Result<Self, Error> {
@@ -67,7 +67,7 @@ fn event(t_us: i64, kind: &str, detail: impl Into<String>) -> EventRow {
 }
 
 fn base_result(plan_name: String) -> TrialResult {
-    super::supervise::engine_verdict(Verdict::Error, String::new()).with_plan(plan_name)
+    super::supervise::engine_verdict(TrialVerdict::Error, String::new()).with_plan(plan_name)
 }
 
 impl TrialResult {
@@ -214,7 +214,7 @@ pub(super) fn no_start_pose(
     w.event(&event(0, "fault", why.clone()))?;
     let outcome = Outcome { state: TrialState::Faulted, reason: Some(why.clone()), inserted: None };
     w.finish(outcome)?;
-    out.verdict = Verdict::Faulted;
+    out.verdict = TrialVerdict::Faulted;
     out.reason = why;
     out.frames = e.frames.len() as u64;
     out.dropped_frames = e.injected;
@@ -229,18 +229,18 @@ fn err_um(a: &Pose, b: &Pose) -> f64 {
 }
 
 /// Inserted or missed; the reason's class (before the `:`) says how it missed.
-fn judge(r: &Replay, fixture: &Fixture) -> (Verdict, String) {
+fn judge(r: &Replay, fixture: &Fixture) -> (TrialVerdict, String) {
     let d = fixture.goal.signed_distance(&r.final_pose.position());
     let jams = r.events.len();
     if r.inserted {
-        return (Verdict::Inserted, format!("inserted: COM {:.0} µm inside the channel", -d));
+        return (TrialVerdict::Inserted, format!("inserted: COM {:.0} µm inside the channel", -d));
     }
     let how = if jams > 0 { "missed after a jam" } else { "missed" };
     if d < 0.0 {
-        (Verdict::Missed, format!("{how}, COM in the channel mouth: only {:.0} µm deep", -d))
+        (TrialVerdict::Missed, format!("{how}, COM in the channel mouth: only {:.0} µm deep", -d))
     } else {
         (
-            Verdict::Missed,
+            TrialVerdict::Missed,
             format!("{how}, COM short of the channel: {d:.0} µm outside; {jams} jam(s)"),
         )
     }

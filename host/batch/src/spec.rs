@@ -4,7 +4,7 @@
 //! relative to the working directory (like every `--out`). Parsed strictly: an unknown field
 //! is an error naming it.
 
-use super::runner::Verdict;
+use super::runner::TrialVerdict;
 use crate::Error;
 use mesopush_sim::Plan;
 use serde::{Deserialize, Serialize};
@@ -36,10 +36,10 @@ pub struct BatchSpec {
     pub plans: Vec<PathBuf>,
     /// The simulated world.
     #[serde(default)]
-    pub world: WorldSpec,
+    pub world: BatchWorld,
     /// Start-pose estimation from the camera.
     #[serde(default)]
-    pub camera: CameraSpec,
+    pub camera: StartCameraSpec,
     /// Timeouts and retries.
     #[serde(default)]
     pub policy: Policy,
@@ -52,7 +52,7 @@ fn default_runner() -> String {
 /// The world a trial runs in.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct WorldSpec {
+pub struct BatchWorld {
     /// Uniform start perturbation half-widths: x µm, y µm, θ degrees (default the paper's
     /// trials: 26 µm, 74 µm, 3°), around the first plan's nominal start.
     #[serde(default = "default_perturbation")]
@@ -75,7 +75,7 @@ fn default_perturbation() -> [f64; 3] {
     [26.0, 74.0, 3.0]
 }
 
-impl Default for WorldSpec {
+impl Default for BatchWorld {
     fn default() -> Self {
         Self { perturbation: default_perturbation(), model: None, fixture: None, file: None }
     }
@@ -84,7 +84,7 @@ impl Default for WorldSpec {
 /// How the start pose is estimated from the camera before the plan is adapted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct CameraSpec {
+pub struct StartCameraSpec {
     /// Render and track the first frame to estimate the start (default true). False: the
     /// plan runs unadapted from its nominal start (open loop, as the paper's trials).
     #[serde(default = "yes")]
@@ -114,7 +114,7 @@ fn default_frames() -> u32 {
     5
 }
 
-impl CameraSpec {
+impl StartCameraSpec {
     /// The faults the start camera injects and how long it tries.
     pub fn frame_faults(&self) -> mesopush_rig::start_camera::FrameFaults {
         mesopush_rig::start_camera::FrameFaults {
@@ -125,7 +125,7 @@ impl CameraSpec {
     }
 }
 
-impl Default for CameraSpec {
+impl Default for StartCameraSpec {
     fn default() -> Self {
         Self {
             estimate_start: true,
@@ -153,7 +153,7 @@ pub struct Policy {
     pub max_attempts: u32,
     /// Verdicts that earn another attempt (default `timeout`, `error`).
     #[serde(default = "default_retry_on")]
-    pub retry_on: Vec<Verdict>,
+    pub retry_on: Vec<TrialVerdict>,
 }
 
 fn default_timeout() -> f64 {
@@ -165,8 +165,8 @@ fn default_grace() -> f64 {
 fn default_attempts() -> u32 {
     2
 }
-fn default_retry_on() -> Vec<Verdict> {
-    vec![Verdict::Timeout, Verdict::Error]
+fn default_retry_on() -> Vec<TrialVerdict> {
+    vec![TrialVerdict::Timeout, TrialVerdict::Error]
 }
 
 impl Default for Policy {
@@ -228,7 +228,7 @@ impl BatchSpec {
         if p.max_attempts == 0 || p.max_attempts > 100 {
             return Err(bad("policy.max_attempts must be in 1..=100"));
         }
-        if p.retry_on.iter().any(|v| matches!(v, Verdict::Inserted)) {
+        if p.retry_on.iter().any(|v| matches!(v, TrialVerdict::Inserted)) {
             return Err(bad("policy.retry_on cannot hold `inserted`"));
         }
         Ok(())

@@ -5,7 +5,7 @@
 
 use super::engine::Manifest;
 use super::journal::{AttemptRecord, JOURNAL, Record, read};
-use super::runner::Verdict;
+use super::runner::TrialVerdict;
 use crate::Error;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -43,7 +43,7 @@ impl Loaded {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ReasonCount {
     /// The verdict.
-    pub verdict: Verdict,
+    pub verdict: TrialVerdict,
     /// The reason with its numbers cut off (text before the first `:`).
     pub reason: String,
     /// How many trials.
@@ -63,15 +63,15 @@ pub struct Summary {
     pub missing: u64,
     /// Trials with more than one final record (must be 0).
     pub duplicates: u64,
-    /// Verdict `inserted`.
+    /// TrialVerdict `inserted`.
     pub succeeded: u64,
-    /// Verdict `missed`.
+    /// TrialVerdict `missed`.
     pub missed: u64,
-    /// Verdict `faulted`.
+    /// TrialVerdict `faulted`.
     pub faulted: u64,
-    /// Verdict `timeout`.
+    /// TrialVerdict `timeout`.
     pub timeouts: u64,
-    /// Verdict `error`.
+    /// TrialVerdict `error`.
     pub errors: u64,
     /// succeeded / trials.
     pub success_rate: f64,
@@ -113,7 +113,7 @@ pub fn reason_class(reason: &str) -> String {
 }
 
 fn count_reasons<'a>(finals: impl Iterator<Item = &'a AttemptRecord>) -> Vec<ReasonCount> {
-    let mut m: BTreeMap<(Verdict, String), u64> = BTreeMap::new();
+    let mut m: BTreeMap<(TrialVerdict, String), u64> = BTreeMap::new();
     for a in finals {
         *m.entry((a.result.verdict, reason_class(&a.result.reason))).or_default() += 1;
     }
@@ -133,20 +133,20 @@ pub fn summarize(b: &Loaded) -> Summary {
     let finals = b.finals();
     let all_finals = b.records.iter().filter(|r| matches!(r, Record::Trial(_))).count() as u64;
     let n = finals.len() as u64;
-    let count = |v: Verdict| finals.values().filter(|a| a.result.verdict == v).count() as u64;
+    let count = |v: TrialVerdict| finals.values().filter(|a| a.result.verdict == v).count() as u64;
     let mut s = Summary {
         name: spec.name.clone(),
         trials: n,
         expected,
         missing: expected.saturating_sub(n),
         duplicates: all_finals - n,
-        succeeded: count(Verdict::Inserted),
-        missed: count(Verdict::Missed),
-        faulted: count(Verdict::Faulted),
-        timeouts: count(Verdict::Timeout),
-        errors: count(Verdict::Error),
+        succeeded: count(TrialVerdict::Inserted),
+        missed: count(TrialVerdict::Missed),
+        faulted: count(TrialVerdict::Faulted),
+        timeouts: count(TrialVerdict::Timeout),
+        errors: count(TrialVerdict::Error),
         success_rate: 0.0,
-        success_ci95: wilson95(count(Verdict::Inserted), n),
+        success_ci95: wilson95(count(TrialVerdict::Inserted), n),
         attempts: 0,
         discarded: 0,
         faults_injected: 0,

@@ -4,7 +4,7 @@
 //! a fresh runner (a stuck component is replaced, never waited on forever). Panics are
 //! caught and become verdict `error`. Every wait here is bounded.
 
-use super::runner::{Cancel, RunnerFactory, TrialJob, TrialResult, TrialRunner, Verdict};
+use super::runner::{Cancel, RunnerFactory, TrialJob, TrialResult, TrialRunner, TrialVerdict};
 use crate::Error;
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
@@ -39,7 +39,7 @@ fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
 }
 
 /// A verdict the engine makes for the runner (it never got to say).
-pub fn engine_verdict(verdict: Verdict, reason: String) -> TrialResult {
+pub fn engine_verdict(verdict: TrialVerdict, reason: String) -> TrialResult {
     TrialResult {
         verdict,
         reason,
@@ -116,7 +116,7 @@ impl Supervisor {
                     Ok((runner, _)) => {
                         self.runner = Some(runner);
                         return Ok(engine_verdict(
-                            Verdict::Timeout,
+                            TrialVerdict::Timeout,
                             format!(
                                 "exceeded its {:.1} s budget; cancelled, and it stopped",
                                 timeout.as_secs_f64()
@@ -129,7 +129,7 @@ impl Supervisor {
         };
         let Some((runner, result)) = reply else {
             return Ok(engine_verdict(
-                Verdict::Timeout,
+                TrialVerdict::Timeout,
                 format!(
                     "exceeded its {:.1} s budget and did not stop within {:.1} s of being \
                      cancelled; abandoned, runner restarted",
@@ -145,10 +145,10 @@ impl Supervisor {
             }
             Ok(Err(e)) => {
                 self.runner = Some(runner);
-                engine_verdict(Verdict::Error, format!("runner error: {e}"))
+                engine_verdict(TrialVerdict::Error, format!("runner error: {e}"))
             }
             Err(p) => engine_verdict(
-                Verdict::Error,
+                TrialVerdict::Error,
                 format!("runner panicked: {}; runner restarted", panic_text(p.as_ref())),
             ),
         })

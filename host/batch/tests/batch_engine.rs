@@ -3,11 +3,11 @@
 //! timeouts, restarts, resume after an interrupted attempt, sharding + merge, the report.
 
 use mesopush_batch::journal::{JOURNAL, Record, read};
-use mesopush_batch::spec::{CameraSpec, Policy, WorldSpec};
+use mesopush_batch::spec::{BatchWorld, Policy, StartCameraSpec};
 use mesopush_batch::stats::{Loaded, summarize};
 use mesopush_batch::{
     BatchConfig, BatchSpec, Cancel, RunnerFactory, SimRunner, TrialJob, TrialResult, TrialRunner,
-    Verdict, merge, report, run,
+    TrialVerdict, merge, report, run,
 };
 use mesopush_core::shard::Shard;
 use mesopush_sim::{Fixture, Model, Plan};
@@ -22,8 +22,8 @@ fn spec(trials: u64, seed: u64, camera: bool) -> BatchSpec {
         runner: "sim".into(),
         out: None,
         plans: vec![PathBuf::from("table2.toml")],
-        world: WorldSpec::default(),
-        camera: CameraSpec {
+        world: BatchWorld::default(),
+        camera: StartCameraSpec {
             estimate_start: camera,
             frame_drop: 0.3,
             frame_black: 0.3,
@@ -38,7 +38,7 @@ fn cfg(spec: BatchSpec, out: &Path, shard: Shard, max_trials: Option<u64>) -> Ba
     BatchConfig { spec, plans: vec![Plan::table2()], out: out.to_path_buf(), shard, max_trials }
 }
 
-fn sim_factory(camera: CameraSpec) -> RunnerFactory {
+fn sim_factory(camera: StartCameraSpec) -> RunnerFactory {
     Box::new(move || {
         let theta = Plan::table2().peg_start_pose().theta_rad;
         let r = SimRunner::new(
@@ -121,7 +121,7 @@ fn write_log(job: &TrialJob, dir: &Path, state: TrialState, inserted: Option<boo
     w.finish(Outcome { state, reason: None, inserted }).unwrap();
 }
 
-fn result(verdict: Verdict) -> TrialResult {
+fn result(verdict: TrialVerdict) -> TrialResult {
     let mut r = mesopush_batch::supervise::engine_verdict(verdict, "test runner".into());
     r.faults_injected = 1;
     r
@@ -170,12 +170,12 @@ impl TrialRunner for Scripted {
             Act::Panic => panic!("boom in {}", job.trial_id),
             Act::Lie => {
                 write_log(job, dir, TrialState::Done, Some(false));
-                Ok(result(Verdict::Inserted))
+                Ok(result(TrialVerdict::Inserted))
             }
-            Act::NoLog => Ok(result(Verdict::Missed)),
+            Act::NoLog => Ok(result(TrialVerdict::Missed)),
             Act::HangOnce | Act::Succeed => {
                 write_log(job, dir, TrialState::Done, Some(true));
-                Ok(result(Verdict::Inserted))
+                Ok(result(TrialVerdict::Inserted))
             }
         }
     }
@@ -193,22 +193,26 @@ fn scripted(acts: &[Act], policy: Policy) -> (tempfile::TempDir, PathBuf, mesopu
     (tmp, out, session)
 }
 
-fn verdicts(out: &Path) -> Vec<(u64, Verdict, u32)> {
+fn verdicts(out: &Path) -> Vec<(u64, TrialVerdict, u32)> {
     let b = Loaded::load(out).unwrap();
     b.finals().values().map(|a| (a.index, a.result.verdict, a.attempt)).collect()
 }
 
 #[test]
 fn hung_and_stuck_runners_time_out_are_replaced_and_the_batch_goes_on() {
-    let policy =
-        Policy { timeout_s: 1.5, grace_s: 0.5, max_attempts: 2, retry_on: vec![Verdict::Timeout] };
+    let policy = Policy {
+        timeout_s: 1.5,
+        grace_s: 0.5,
+        max_attempts: 2,
+        retry_on: vec![TrialVerdict::Timeout],
+    };
     let (_tmp, out, session) = scripted(&[Act::HangOnce, Act::Stuck, Act::Succeed], policy);
     assert_eq!(
         verdicts(&out),
         vec![
-            (0, Verdict::Inserted, 2), // timed out, cancelled, stopped; retried
-            (1, Verdict::Timeout, 2),  // stuck twice: abandoned twice
-            (2, Verdict::Inserted, 1),
+            (0, TrialVerdict::Inserted, 2), // timed out, cancelled, stopped; retried
+            (1, TrialVerdict::Timeout, 2),  // stuck twice: abandoned twice
+            (2, TrialVerdict::Inserted, 1),
         ]
     );
     assert_eq!(session.restarts, 2, "each abandoned runner is replaced");
@@ -226,10 +230,10 @@ fn panics_and_lies_end_with_true_verdicts_and_the_batch_goes_on() {
     assert_eq!(
         verdicts(&out),
         vec![
-            (0, Verdict::Error, 1),
-            (1, Verdict::Error, 1), // its log says not inserted
-            (2, Verdict::Error, 1), // no log
-            (3, Verdict::Inserted, 1),
+            (0, TrialVerdict::Error, 1),
+            (1, TrialVerdict::Error, 1), // its log says not inserted
+            (2, TrialVerdict::Error, 1), // no log
+            (3, TrialVerdict::Inserted, 1),
         ]
     );
     assert_eq!(session.restarts, 1, "the panicked runner is replaced");

@@ -9,7 +9,7 @@
 
 use mesopush_batch::TrialResult;
 use mesopush_batch::stats::{Loaded, summarize};
-use mesopush_batch::{BatchConfig, BatchSpec, Verdict, merge, report, run, runner_factory};
+use mesopush_batch::{BatchConfig, BatchSpec, TrialVerdict, merge, report, run, runner_factory};
 use mesopush_core::geom::{Pose, Vec2};
 use mesopush_core::shard::Shard;
 use mesopush_rig::world::NEEDLE_DEFLECTION_LIMIT_UM;
@@ -61,7 +61,7 @@ fn check_jams(ctx: &str, t: &Trial, dir: &Path, r: &TrialResult) -> bool {
     let over = rows.iter().any(|row| row[6] > NEEDLE_DEFLECTION_LIMIT_UM);
     let logged = t.events.iter().any(|e| e.kind == "jam");
     assert!(!over || logged, "{ctx}: the needle bent past the limit and no jam was logged");
-    if logged && r.verdict == Verdict::Missed {
+    if logged && r.verdict == TrialVerdict::Missed {
         assert!(r.reason.contains("jammed"), "{ctx}: a miss after a jam must say so");
     }
     logged
@@ -147,9 +147,9 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
             )
         });
         if injected_ctrl {
-            assert_eq!(r.verdict, Verdict::Faulted, "{ctx}: a controller fault was injected");
+            assert_eq!(r.verdict, TrialVerdict::Faulted, "{ctx}: a controller fault was injected");
         }
-        if r.verdict == Verdict::Faulted {
+        if r.verdict == TrialVerdict::Faulted {
             assert!(t.events.iter().any(|e| e.kind == "fault"), "{ctx}: no fault event");
             if let Some(us) = stop_latency_us(&t) {
                 worst_stop_us = worst_stop_us.max(us);
@@ -161,10 +161,10 @@ fn a_200_trial_faulted_full_loop_batch_runs_unattended_with_true_verdicts() {
         }
         if r.reason.contains("cannot judge") {
             unjudged += 1;
-        } else if matches!(r.verdict, Verdict::Inserted | Verdict::Missed) {
+        } else if matches!(r.verdict, TrialVerdict::Inserted | TrialVerdict::Missed) {
             judged += 1;
             assert_eq!(
-                r.verdict == Verdict::Inserted,
+                r.verdict == TrialVerdict::Inserted,
                 truly_inserted(&dir),
                 "{ctx}: false verdict"
             );

@@ -9,7 +9,7 @@ use crate::Error;
 
 /// Which instant of the exposure a timestamp marks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StampSource {
+pub enum StampInstant {
     /// Start of exposure (the driver says so: `V4L2_BUF_FLAG_TSTAMP_SRC_SOE`).
     StartOfExposure,
     /// End of frame (V4L2's default when the driver says nothing else).
@@ -24,7 +24,7 @@ pub struct CapturedFrame {
     /// Capture time on the monotonic clock, µs (`frame_stamp_us`).
     pub t_capture_us: u64,
     /// Which instant `t_capture_us` marks.
-    pub stamp: StampSource,
+    pub stamp: StampInstant,
     /// The driver's frame sequence number.
     pub sequence: u32,
     /// Frames lost just before this one (gap in the sequence numbers).
@@ -124,7 +124,7 @@ impl FrameSource for ReplaySource {
         Ok(Some(CapturedFrame {
             image,
             t_capture_us: self.start_us + u64::from(sequence) * self.period_us,
-            stamp: StampSource::StartOfExposure,
+            stamp: StampInstant::StartOfExposure,
             sequence,
             dropped_before: self.drops.observe(sequence),
         }))

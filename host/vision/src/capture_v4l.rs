@@ -13,7 +13,7 @@ use v4l::video::Capture;
 use v4l::{Device, FourCC};
 
 use crate::Error;
-use crate::capture::{CapturedFrame, DropCounter, FrameSource, StampSource};
+use crate::capture::{CapturedFrame, DropCounter, FrameSource, StampInstant};
 
 /// How the driver lays out a pixel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -116,9 +116,9 @@ impl FrameSource for V4l2Source {
             ));
         }
         let stamp = if (meta.flags & Flags::TSTAMP_SRC_MASK) == Flags::TSTAMP_SRC_SOE {
-            StampSource::StartOfExposure
+            StampInstant::StartOfExposure
         } else {
-            StampSource::EndOfFrame
+            StampInstant::EndOfFrame
         };
         // time_t is 32 bits on some targets
         #[allow(clippy::unnecessary_cast)]

@@ -73,8 +73,8 @@ impl ScaleLock {
             return None;
         }
         let mut sorted = self.samples.clone();
-        sorted.sort_by(f64::total_cmp);
-        let r = sorted[sorted.len() / 2];
+        // The upper median (a measured value): rank round((n − 1)/2) = n/2.
+        let r = mesopush_core::stats::percentile(&mut sorted, 0.5)?;
         self.locked = Some(r);
         Some(r)
     }

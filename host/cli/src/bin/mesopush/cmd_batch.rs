@@ -1,11 +1,11 @@
 //! `mesopush batch`: run (or resume) a trial batch from a batch file, shard it, merge shard
 //! outputs, and write its report. Thin over `mesopush_batch`.
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_batch::stats::{Loaded, Summary, summarize};
-use mesopush_batch::{BatchConfig, BatchSpec, Progress, Session, merge, report, runner_factory};
+use mesopush_batch::{BatchConfig, BatchProgress, Session, merge, report};
 use mesopush_core::shard::Shard;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -89,20 +89,11 @@ fn bar(json: bool) -> ProgressBar {
 }
 
 fn run_batch(a: &RunArgs) -> Result<()> {
-    let spec = BatchSpec::load(&a.batch)?;
-    let base = a.batch.parent().unwrap_or(Path::new("."));
-    let plans = spec.load_plans(base).context("loading the batch's plans")?;
     let shard = a.shard.as_deref().map(Shard::parse).transpose()?.unwrap_or(Shard::ALL);
-    let stem = a.batch.file_stem().map_or("batch".into(), |s| s.to_string_lossy().into_owned());
-    let mut out =
-        a.out.clone().or(spec.out.clone()).unwrap_or(PathBuf::from(format!("runs/batch-{stem}")));
-    if shard != Shard::ALL {
-        out = out.join(shard.dir_name());
-    }
-    let factory = runner_factory(&spec, base, plans[0].peg_start_pose().theta_rad)?;
-    let cfg = BatchConfig { spec, plans, out: out.clone(), shard, max_trials: a.max_trials };
+    let (cfg, factory) = BatchConfig::from_file(&a.batch, a.out.clone(), shard, a.max_trials)?;
+    let out = cfg.out.clone();
     let pb = bar(a.json);
-    let mut on_progress = |p: &Progress| {
+    let mut on_progress = |p: &BatchProgress| {
         pb.set_length(p.total);
         if p.done == p.resumed {
             pb.reset_eta();
