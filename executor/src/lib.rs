@@ -8,7 +8,11 @@
 //! queue `LA` segments. Time domains are named: `exec_time_us` (this executor's clock),
 //! `ctrl_time_us` (the controller's, reached through [`sync::ClockSync`]), `frame_stamp_us`
 //! (camera stamps, executor clock). The crate is `#![no_std]`; the `std` feature (default)
-//! adds the file-backed plan store and a monotonic clock.
+//! adds the std shell ([`shell`]), the file-backed plan store, a monotonic clock and the
+//! recording schema ([`recording`]) the host's trial logs build on.
+//!
+//! May depend on: `mesopush-protocol` only — never on host crates or the firmware
+//! simulator (which its tests use as a peer).
 #![no_std]
 #![deny(missing_docs)]
 

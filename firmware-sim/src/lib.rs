@@ -10,6 +10,10 @@
 //!   trait the host implements with its simulator and renderer.
 //! - [`config`]: plain-data [`CtrlConfig`] and [`FaultConfig`]; [`rng`]: the one seeded
 //!   random source. Same seed → identical event sequence.
+//!
+//! May depend on: `mesopush-protocol` only. The physical world is reached through the
+//! [`World`] trait, which the host's rig implements; it never depends on host crates or the
+//! executor.
 
 #![deny(missing_docs)]
 

@@ -4,6 +4,10 @@
 //! of shard outputs, and a report (success rate with its 95 % interval, failure reasons,
 //! timing, figures). The engine knows trials only through the runner trait. See
 //! `docs/batch.md`.
+//!
+//! May depend on: `mesopush-core`, `mesopush-sim`, `mesopush-vision`, `mesopush-trial`,
+//! `mesopush-plot`, `mesopush-plan` and `mesopush-rig` (its runners drive the simulator or the
+//! whole loop). Never on identification, diagnosis or the CLI.
 
 pub mod check;
 pub mod engine;

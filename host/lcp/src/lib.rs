@@ -26,6 +26,8 @@
 //! allocates nothing unless `n` grows. For a sequence of similar problems (simulator steps),
 //! [`LcpSolver::solve_warm`] with the previous [`LcpSolution::active`] is a verified shortcut.
 //!
+//! May depend on: nothing of mesopush (a leaf: numerics only).
+//!
 //! ```
 //! use mesopush_lcp::{LcpSettings, LcpSolver, MlcpProblem};
 //!

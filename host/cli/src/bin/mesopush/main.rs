@@ -1,5 +1,7 @@
-//! `mesopush`: the host command line. Thin over `mesopush_host`: each subcommand module parses
-//! its flags, calls the library and prints.
+//! `mesopush`: the host command line. Thin over the host crates (`mesopush-sim`, `-plan`,
+//! `-ident`, `-diagnose`, `-rig`, `-batch`, ...): each subcommand module parses its flags,
+//! calls a library function and prints. The cli crate is the only one that depends on clap,
+//! anyhow and indicatif; nothing depends on it.
 
 mod cmd_batch;
 mod cmd_demo;
