@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The mesopush tracking pipeline re-done with OpenCV, as a speed and sanity reference.
 
-Same steps as host/src/vision (paper section IV): background subtraction normalised by the
+Same steps as host/vision/src (paper section IV): background subtraction normalised by the
 plate's light (a quadratic fitted to the bright background), Otsu threshold, removal of the
 probe by a morphological opening with a disc wider than the needle (two chamfer distance
 transforms, as ours), then the peg's centroid
