@@ -94,7 +94,16 @@ fn plan_cli_prints_the_json_summary_and_writes_a_loadable_plan() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("plan.toml");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
-        .args(["plan", "--seed", &SEED.to_string(), "--json", "--max-iterations", "300", "--out"])
+        .args([
+            "plan",
+            "rrt",
+            "--seed",
+            &SEED.to_string(),
+            "--json",
+            "--max-iterations",
+            "300",
+            "--out",
+        ])
         .arg(&out)
         .output()
         .unwrap();
@@ -112,7 +121,7 @@ fn robust_plan_cli_reports_the_fresh_check_and_the_design_figures() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("robust.toml");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
-        .args(["plan", "--robust", "--seed", "3", "--json", "--generations", "1"])
+        .args(["plan", "robust", "--seed", "3", "--json", "--generations", "1"])
         .args(["--train-samples", "4", "--validation-samples", "4", "--check-samples", "6"])
         .args(["--check-seed", "99", "--rounds", "2", "--accept-rate", "1.01", "--out"])
         .arg(&out)

@@ -25,7 +25,7 @@ fn wilson_interval_covers_a_known_bernoulli_95_percent_of_the_time() {
     }
 }
 
-fn estimate(plan: &Plan, unc: Uncertainty, n: usize, seed: u64) -> mesopush_plan::Estimate {
+fn estimate(plan: &Plan, unc: Uncertainty, n: usize, seed: u64) -> mesopush_plan::SuccessEstimate {
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
     let mc = MonteCarlo {
         plan,
@@ -98,7 +98,7 @@ fn robustness_cli_prints_the_json_summary() {
     let dir = tempfile::tempdir().unwrap();
     let plan = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../plans/table2.toml");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
-        .args(["robustness", "--samples", "6", "--seed", "2", "--json", "--out"])
+        .args(["robustness", "run", "--samples", "6", "--seed", "2", "--json", "--out"])
         .arg(dir.path())
         .arg(&plan)
         .output()
@@ -137,9 +137,9 @@ fn small_search() -> mesopush_plan::RobustSettings {
 
 #[test]
 fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds() {
-    use mesopush_plan::{RobustSettings, Skeleton, World, design_robust};
+    use mesopush_plan::{RobustSettings, Skeleton, UncertainWorld, design_robust};
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
-    let world = World::nominal(&model, &fixture, &settings);
+    let world = UncertainWorld::nominal(&model, &fixture, &settings);
     let rs = small_search();
     let start = Plan::table2().peg_start;
     let run = |rs: &RobustSettings, seed| {
@@ -195,9 +195,9 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
 
 #[test]
 fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_the_incumbent() {
-    use mesopush_plan::{RobustSettings, World, design_robust};
+    use mesopush_plan::{RobustSettings, UncertainWorld, design_robust};
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
-    let world = World::nominal(&model, &fixture, &settings);
+    let world = UncertainWorld::nominal(&model, &fixture, &settings);
     let rs = RobustSettings {
         generations: 2,
         validation_samples: 6,

@@ -5,7 +5,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use mesopush_plan::{
-    MonteCarlo, RobustSettings, RrtSettings, Uncertainty, World, design_robust, plan_rrt,
+    MonteCarlo, RobustSettings, RrtSettings, UncertainWorld, Uncertainty, design_robust, plan_rrt,
 };
 use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator};
 use rand::SeedableRng;
@@ -38,7 +38,7 @@ fn rrt(c: &mut Criterion) {
     g.bench_function("montecarlo_table2_64", |b| {
         b.iter(|| black_box(mc.estimate(64, 11, &|| ()).expect("estimate")))
     });
-    let world = World::nominal(&model, &fixture, &sim_settings);
+    let world = UncertainWorld::nominal(&model, &fixture, &sim_settings);
     let rs = RobustSettings { generations: 1, validation_samples: 0, ..Default::default() };
     g.bench_function("robust_one_generation", |b| {
         b.iter(|| {

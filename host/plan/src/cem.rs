@@ -1,11 +1,13 @@
 //! One round of the cross-entropy method over the [`Skeleton`]'s parameters, with racing and
-//! fresh training worlds every generation ([`super::robust`] runs the rounds and chooses the
-//! plan among their finalists).
+//! fresh training worlds every generation (`robust` runs the rounds and chooses the plan
+//! among their finalists).
 
-use super::montecarlo::draws;
-use super::robust::{RobustSettings, World, successes};
-use super::sampler::Draw;
-use super::skeleton::{BOUNDS, Skeleton};
+use crate::montecarlo::draws;
+use crate::robust_settings::RobustSettings;
+use crate::sampler::Draw;
+use crate::score::successes;
+use crate::skeleton::{BOUNDS, Skeleton};
+use crate::world::UncertainWorld;
 use mesopush_sim::plan::PegStart;
 use rand::RngExt;
 
@@ -16,7 +18,7 @@ fn gaussian(rng: &mut impl rand::Rng) -> f64 {
 }
 
 /// A scored candidate: skeleton and successes on all training worlds.
-pub(super) type Scored = (Skeleton, usize);
+pub(crate) type Scored = (Skeleton, usize);
 
 /// One raced generation: returns the candidates that ran on every training world, best first
 /// (stable: ties keep sampling order), and the number of replays simulated.
@@ -24,7 +26,7 @@ fn race(
     cands: &[Skeleton],
     worlds: &[Draw],
     keep: usize,
-    world: &World<'_>,
+    world: &UncertainWorld<'_>,
     start: PegStart,
 ) -> (Vec<Scored>, usize) {
     let half = worlds.len() / 2;
@@ -54,19 +56,19 @@ fn update(mean: &mut [f64], sigma: &mut [f64], elite: &[Scored]) {
 
 /// Counters of a search.
 #[derive(Debug, Clone, Copy, Default)]
-pub(super) struct Counts {
-    pub(super) evaluations: usize,
-    pub(super) replays: usize,
-    pub(super) generations: usize,
-    pub(super) rounds: usize,
-    pub(super) stopped: bool,
+pub(crate) struct Counts {
+    pub(crate) evaluations: usize,
+    pub(crate) replays: usize,
+    pub(crate) generations: usize,
+    pub(crate) rounds: usize,
+    pub(crate) stopped: bool,
 }
 
 /// One CEM round from [`RobustSettings::initial`]; returns its finalists (the best trained,
 /// the final sampling mean, the initial skeleton, then the next best distinct ones), adding to
 /// `counts`.
-pub(super) fn cem_round(
-    world: &World<'_>,
+pub(crate) fn cem_round(
+    world: &UncertainWorld<'_>,
     start: PegStart,
     settings: &RobustSettings,
     rng: &mut impl rand::Rng,
@@ -127,22 +129,43 @@ pub(super) fn cem_round(
     let centre = Skeleton { params: mean }.clamped();
     let centre_train = successes(&[centre], &worlds, world, start)[0];
     counts.replays += n_train;
-    // The start too: the search never returns worse than where it started on the
-    // validation worlds (its training score is from the first generation's worlds).
-    let mut finalists: Vec<Scored> = Vec::new();
-    for f in [incumbent, (centre, centre_train), s0_scored] {
-        if !finalists.iter().any(|g| g.0 == f.0) {
-            finalists.push(f);
+    Finalists { incumbent, centre: (centre, centre_train), start: s0_scored, hall: &hall }
+        .pick(settings.finalists.max(1))
+}
+
+/// The candidates a round hands to validation.
+struct Finalists<'a> {
+    /// The best trained.
+    incumbent: Scored,
+    /// The final sampling mean.
+    centre: Scored,
+    /// The round's start.
+    start: Scored,
+    /// Every candidate that ran on all training worlds, best first.
+    hall: &'a [Scored],
+}
+
+impl Finalists<'_> {
+    /// The incumbent, the centre and the start (distinct, in that order), then the next best
+    /// distinct ones of the hall, `n` in all.
+    fn pick(&self, n: usize) -> Vec<Scored> {
+        // The start too: the search never returns worse than where it started on the
+        // validation worlds (its training score is from the first generation's worlds).
+        let mut finalists: Vec<Scored> = Vec::new();
+        for f in [self.incumbent, self.centre, self.start] {
+            if !finalists.iter().any(|g| g.0 == f.0) {
+                finalists.push(f);
+            }
         }
+        finalists.truncate(n);
+        for h in self.hall {
+            if finalists.len() >= n {
+                break;
+            }
+            if !finalists.iter().any(|f| f.0 == h.0) {
+                finalists.push(*h);
+            }
+        }
+        finalists
     }
-    finalists.truncate(settings.finalists.max(1));
-    for h in &hall {
-        if finalists.len() >= settings.finalists.max(1) {
-            break;
-        }
-        if !finalists.iter().any(|f| f.0 == h.0) {
-            finalists.push(*h);
-        }
-    }
-    finalists
 }

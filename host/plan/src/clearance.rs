@@ -5,6 +5,7 @@
 
 use mesopush_core::geom::{ConvexPolygon, Vec2, cross, point_segment_distance};
 use mesopush_executor::ExecutorConfig;
+use mesopush_protocol::units::{nm_s_to_um_s, nm_to_um};
 
 /// Clearance the probe disc keeps from the fixture walls, µm (beyond its radius).
 pub const WALL_CLEARANCE_UM: f64 = 5.0;
@@ -13,14 +14,14 @@ pub const WALL_CLEARANCE_UM: f64 = 5.0;
 pub fn workspace_um() -> (Vec2, Vec2) {
     let w = ExecutorConfig::DEFAULT.workspace;
     (
-        Vec2::new(f64::from(w.min_x_nm) / 1e3, f64::from(w.min_y_nm) / 1e3),
-        Vec2::new(f64::from(w.max_x_nm) / 1e3, f64::from(w.max_y_nm) / 1e3),
+        Vec2::new(nm_to_um(w.min_x_nm), nm_to_um(w.min_y_nm)),
+        Vec2::new(nm_to_um(w.max_x_nm), nm_to_um(w.max_y_nm)),
     )
 }
 
 /// The executor's default speed limit, µm/s.
 pub fn max_speed_um_s() -> f64 {
-    f64::from(ExecutorConfig::DEFAULT.max_speed_nm_s) / 1e3
+    nm_s_to_um_s(ExecutorConfig::DEFAULT.max_speed_nm_s)
 }
 
 /// Whether `p` lies inside the executor's workspace box.

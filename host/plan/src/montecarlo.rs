@@ -5,8 +5,8 @@
 //! the result is bit-identical for any thread count. The candidate supports are a plain
 //! slice, so identification can hand its identified set straight in.
 
-use super::sampler::{Draw, Uncertainty, draw};
 use crate::Error;
+use crate::sampler::{Draw, Uncertainty, draw};
 use mesopush_core::geom::Pose;
 use mesopush_core::stats::{Z95, wilson_interval};
 use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, SupportDistribution, replay};
@@ -14,9 +14,9 @@ use rand::SeedableRng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// One trial's result.
+/// What one Monte Carlo sample did: the world it drew and the plan's outcome there.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Trial {
+pub struct SampleOutcome {
     /// The world it ran in.
     pub draw: Draw,
     /// Whether the peg ended inserted.
@@ -29,9 +29,9 @@ pub struct Trial {
     pub final_pose: Option<Pose>,
 }
 
-/// The estimate.
+/// A plan's estimated success probability, with every sample's outcome.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Estimate {
+pub struct SuccessEstimate {
     /// Trials run.
     pub samples: usize,
     /// Trials that inserted the peg.
@@ -43,12 +43,12 @@ pub struct Estimate {
     /// Wilson 95 % interval, upper end.
     pub ci_high: f64,
     /// Every trial, in index order.
-    pub trials: Vec<Trial>,
+    pub trials: Vec<SampleOutcome>,
 }
 
-impl Estimate {
+impl SuccessEstimate {
     /// Summarises trials.
-    pub fn from_trials(trials: Vec<Trial>) -> Self {
+    pub fn from_trials(trials: Vec<SampleOutcome>) -> Self {
         let successes = trials.iter().filter(|t| t.inserted).count();
         let n = trials.len();
         let (ci_low, ci_high) = wilson_interval(successes, n, Z95);
@@ -96,18 +96,23 @@ pub fn draws_at(
 }
 
 /// Runs `plan` once in the world of `d`.
-pub fn run_trial(plan: &Plan, d: &Draw, fixture: &Fixture, settings: &SimSettings) -> Trial {
+pub fn run_trial(
+    plan: &Plan,
+    d: &Draw,
+    fixture: &Fixture,
+    settings: &SimSettings,
+) -> SampleOutcome {
     let result = Simulator::new(d.model.clone(), fixture.clone(), settings.clone())
         .and_then(|mut sim| replay(&mut sim, plan, Some(d.start(plan))));
     match result {
-        Ok(r) => Trial {
+        Ok(r) => SampleOutcome {
             draw: d.clone(),
             inserted: r.inserted,
             jammed: !r.events.is_empty(),
             error: None,
             final_pose: Some(r.final_pose),
         },
-        Err(e) => Trial {
+        Err(e) => SampleOutcome {
             draw: d.clone(),
             inserted: false,
             jammed: false,
@@ -124,7 +129,7 @@ pub fn evaluate(
     fixture: &Fixture,
     settings: &SimSettings,
     tick: &(dyn Fn() + Sync),
-) -> Result<Estimate, Error> {
+) -> Result<SuccessEstimate, Error> {
     plan.validate()?;
     let trials = worlds
         .par_iter()
@@ -134,7 +139,7 @@ pub fn evaluate(
             t
         })
         .collect();
-    Ok(Estimate::from_trials(trials))
+    Ok(SuccessEstimate::from_trials(trials))
 }
 
 /// A Monte Carlo problem: a plan, the nominal world and the uncertainty around it.
@@ -161,10 +166,28 @@ impl MonteCarlo<'_> {
         samples: usize,
         seed: u64,
         tick: &(dyn Fn() + Sync),
-    ) -> Result<Estimate, Error> {
+    ) -> Result<SuccessEstimate, Error> {
         self.model.validate()?;
         let worlds = draws(self.model, &self.uncertainty, self.supports, samples, seed);
         evaluate(self.plan, &worlds, self.fixture, self.settings, tick)
+    }
+
+    /// The success rate at every scale of [`SWEEP_SCALES`] of the uncertainty box, each from
+    /// `samples` trials of master seed `seed` (`tick` after each trial).
+    pub fn sweep(
+        &self,
+        samples: usize,
+        seed: u64,
+        tick: &(dyn Fn() + Sync),
+    ) -> Result<Vec<SweepPoint>, Error> {
+        let mut pts = Vec::new();
+        for scale in SWEEP_SCALES {
+            let scaled = MonteCarlo { uncertainty: self.uncertainty.scaled(scale), ..*self };
+            let e = scaled.estimate(samples, seed, tick)?;
+            let (success_rate, ci_low, ci_high) = (e.success_rate, e.ci_low, e.ci_high);
+            pts.push(SweepPoint { scale, success_rate, ci_low, ci_high });
+        }
+        Ok(pts)
     }
 
     /// Trials `indices` of the run seeded `seed` (each identical to that trial of
@@ -174,11 +197,27 @@ impl MonteCarlo<'_> {
         indices: &[u64],
         seed: u64,
         tick: &(dyn Fn() + Sync),
-    ) -> Result<Vec<Trial>, Error> {
+    ) -> Result<Vec<SampleOutcome>, Error> {
         self.model.validate()?;
         let worlds = draws_at(self.model, &self.uncertainty, self.supports, indices, seed);
         Ok(evaluate(self.plan, &worlds, self.fixture, self.settings, tick)?.trials)
     }
+}
+
+/// Uncertainty scales of [`MonteCarlo::sweep`]: half to twice the box.
+pub const SWEEP_SCALES: [f64; 5] = [0.5, 0.75, 1.0, 1.5, 2.0];
+
+/// One point of a success-rate sweep over the uncertainty box's scale.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SweepPoint {
+    /// Scale of the box (1 = the paper's).
+    pub scale: f64,
+    /// Success rate at that scale.
+    pub success_rate: f64,
+    /// Wilson 95 % interval, lower end.
+    pub ci_low: f64,
+    /// Wilson 95 % interval, upper end.
+    pub ci_high: f64,
 }
 
 /// CSV header of [`write_trials_csv`].
@@ -187,7 +226,10 @@ r1x_um,r1y_um,r2x_um,r2y_um,r3x_um,r3y_um,support_index,inserted,jammed,final_x_
 final_theta_deg,error";
 
 /// Writes every trial as one CSV row (a pandas user can load it).
-pub fn write_trials_csv(trials: &[Trial], mut w: impl std::io::Write) -> std::io::Result<()> {
+pub fn write_trials_csv(
+    trials: &[SampleOutcome],
+    mut w: impl std::io::Write,
+) -> std::io::Result<()> {
     writeln!(w, "{TRIALS_HEADER}")?;
     for (i, t) in trials.iter().enumerate() {
         let m = &t.draw.model;

@@ -11,9 +11,9 @@
 //! The point is computed from the nominal replay, not stored: another model, fixture or
 //! start pose moves it.
 
-use super::robust::World;
-use super::skeleton::Skeleton;
 use crate::Error;
+use crate::skeleton::Skeleton;
+use crate::world::UncertainWorld;
 use mesopush_core::geom::Vec2;
 use mesopush_sim::plan::PegStart;
 use mesopush_sim::{Simulator, replay};
@@ -26,7 +26,7 @@ pub const ALONG_TOP_EDGE: f64 = 0.75;
 /// other numbers are unchanged. Errors if the nominal replay fails.
 pub fn press_on_rotated_peg(
     s: Skeleton,
-    world: &World<'_>,
+    world: &UncertainWorld<'_>,
     start: PegStart,
 ) -> Result<Skeleton, Error> {
     let mut sim =
@@ -81,7 +81,7 @@ mod tests {
     fn the_press_starts_on_the_nominally_rotated_peg_over_its_right_end() {
         let (model, fixture, settings) =
             (Model::default(), Fixture::paper(), SimSettings::default());
-        let world = World::nominal(&model, &fixture, &settings);
+        let world = UncertainWorld::nominal(&model, &fixture, &settings);
         let start = Plan::table2().peg_start;
         let t2 = Skeleton::table2_like();
         let s = press_on_rotated_peg(t2, &world, start).unwrap();

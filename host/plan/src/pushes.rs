@@ -137,7 +137,7 @@ pub fn usable_pushes(
 
 /// What a simulated sequence of probe moves did.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Outcome {
+pub struct PushOutcome {
     /// Peg pose afterwards.
     pub pose: Pose,
     /// Probe tip afterwards, µm.
@@ -155,7 +155,7 @@ pub fn simulate(
     pose: Pose,
     probe_um: Vec2,
     moves: &[[f64; 2]],
-) -> Result<(Outcome, Replay), Error> {
+) -> Result<(PushOutcome, Replay), Error> {
     let plan = Plan {
         name: String::new(),
         speed_um_s: 140.0,
@@ -169,7 +169,7 @@ pub fn simulate(
     };
     let r = replay(sim, &plan, Some(pose))?;
     let last = r.samples.last().map_or([probe_um.x, probe_um.y], |s| s.probe_um);
-    let outcome = Outcome {
+    let outcome = PushOutcome {
         pose: r.final_pose,
         probe_um: Vec2::new(last[0], last[1]),
         jammed: !r.events.is_empty(),

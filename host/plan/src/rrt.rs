@@ -9,56 +9,17 @@
 //! channel, then one along −x that slides it in. A branch counts as found only when the
 //! whole plan, replayed from the start, inserts the peg and keeps the probe out of the walls.
 
-use super::clearance::first_wall_violation;
-use super::pushes::{PushSettings, boundary_locations};
-use super::shortcut::shortcut;
-use super::steer::{Extension, Steer};
-use super::tree::{Tree, pose_distance};
 use crate::Error;
+use crate::pushes::boundary_locations;
+use crate::rrt_settings::RrtSettings;
+use crate::shortcut::shortcut;
+use crate::steer::{Extension, Steer};
+use crate::tree::{Tree, pose_distance};
 use mesopush_core::geom::Pose;
 use mesopush_sim::fixture::FIELD_UM;
-use mesopush_sim::{Plan, Simulator, replay};
-use rand::RngExt;
-
-/// RRT settings (plain data, documented defaults).
-#[derive(Debug, Clone, PartialEq)]
-pub struct RrtSettings {
-    /// Iterations before giving up. Default 2000.
-    pub max_iterations: usize,
-    /// Random pushes simulated per iteration. Default 6.
-    pub inputs_per_iteration: usize,
-    /// Probability of steering towards the goal. Default 0.2.
-    pub goal_bias: f64,
-    /// Push discretisation.
-    pub pushes: PushSettings,
-    /// Probe speed written into the plan, µm/s. Default 140 (the paper's).
-    pub speed_um_s: f64,
-    /// Goal pose tolerance for trying the direct connection: |Δθ| (mod π), degrees.
-    /// Default 8.
-    pub connect_theta_deg: f64,
-    /// Most push drops the shortcut pass tries on the found branch (`plan::shortcut`);
-    /// 0 keeps the branch as found. Default 60.
-    pub shortcut_attempts: usize,
-    /// Orientation window of the goal connection during shortcutting, degrees (wider than
-    /// `connect_theta_deg`: the channel's chamfers square a peg that comes in turned, and the
-    /// pass keeps only plans whose whole replay inserts). Default 20.
-    pub shortcut_connect_theta_deg: f64,
-}
-
-impl Default for RrtSettings {
-    fn default() -> Self {
-        Self {
-            max_iterations: 2000,
-            inputs_per_iteration: 6,
-            goal_bias: 0.2,
-            pushes: PushSettings::default(),
-            speed_um_s: 140.0,
-            connect_theta_deg: 8.0,
-            shortcut_attempts: 60,
-            shortcut_connect_theta_deg: 20.0,
-        }
-    }
-}
+use mesopush_sim::{Plan, Simulator};
+use rand::{RngExt, SeedableRng};
+use std::time::Instant;
 
 /// What the search did.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,7 +44,7 @@ pub struct RrtResult {
 
 /// Progress report for a caller's bar; return `false` from the callback to stop early.
 #[derive(Debug, Clone, Copy)]
-pub struct Progress {
+pub struct RrtProgress {
     /// Iterations so far.
     pub iteration: usize,
     /// Nodes so far.
@@ -96,7 +57,7 @@ pub fn plan_rrt(
     start: Pose,
     settings: &RrtSettings,
     rng: &mut impl rand::Rng,
-    progress: &mut dyn FnMut(Progress) -> bool,
+    progress: &mut dyn FnMut(RrtProgress) -> bool,
 ) -> Result<RrtResult, Error> {
     let locations = boundary_locations(sim.model().part.polygon(), settings.pushes.n_locations);
     let mut steer = Steer::new(sim, &locations, settings);
@@ -137,7 +98,7 @@ pub fn plan_rrt(
             }
         }
         out.tree_size = tree.nodes.len();
-        if !progress(Progress { iteration: it + 1, tree_size: tree.nodes.len() }) {
+        if !progress(RrtProgress { iteration: it + 1, tree_size: tree.nodes.len() }) {
             break;
         }
     }
@@ -195,13 +156,31 @@ fn random_pose(rng: &mut impl rand::Rng) -> Pose {
     )
 }
 
-/// Whether `plan`, replayed from its start, inserts the peg without jamming and keeps the
-/// probe out of the walls and inside the executor's workspace.
-pub fn plan_is_feasible(sim: &mut Simulator, plan: &Plan) -> Result<bool, Error> {
-    let r = sim.model().probe_radius_um;
-    if first_wall_violation(plan.probe_start(), &plan.moves_um, &sim.fixture().walls, r).is_some() {
-        return Ok(false);
-    }
-    let rep = replay(sim, plan, None)?;
-    Ok(rep.inserted && rep.events.is_empty())
+/// A search as `mesopush plan rrt` runs it: seeded, under a wall-clock budget.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RrtRun {
+    /// What the search did (`plan: None` when it found nothing within the budget).
+    pub result: RrtResult,
+    /// Wall-clock time of the search and the shortcut pass, ms.
+    pub planning_ms: f64,
+}
+
+/// [`plan_rrt`] from the ChaCha8 stream of `seed`, stopped after the first iteration that ends
+/// past `time_limit_s`; `progress` sees every iteration (for a progress display).
+pub fn plan_rrt_within(
+    sim: &mut Simulator,
+    start: Pose,
+    settings: &RrtSettings,
+    seed: u64,
+    time_limit_s: f64,
+    progress: &mut dyn FnMut(RrtProgress),
+) -> Result<RrtRun, Error> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let t0 = Instant::now();
+    let mut on_progress = |p: RrtProgress| {
+        progress(p);
+        t0.elapsed().as_secs_f64() < time_limit_s
+    };
+    let result = plan_rrt(sim, start, settings, &mut rng, &mut on_progress)?;
+    Ok(RrtRun { result, planning_ms: t0.elapsed().as_secs_f64() * 1e3 })
 }

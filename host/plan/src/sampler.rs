@@ -33,6 +33,24 @@ impl Default for Uncertainty {
 }
 
 impl Uncertainty {
+    /// Checks that every half-width is finite and ≥ 0; the error names the first that is not.
+    pub fn validate(&self) -> Result<(), Error> {
+        let fields = [
+            ("dx_um", self.dx_um),
+            ("dy_um", self.dy_um),
+            ("dtheta_deg", self.dtheta_deg),
+            ("dmu", self.dmu),
+            ("support_um", self.support_um),
+        ];
+        match fields.iter().find(|(_, v)| !(v.is_finite() && *v >= 0.0)) {
+            Some((name, v)) => Err(Error::invalid(
+                "uncertainty",
+                format!("{name} = {v}: a half-width must be finite and ≥ 0"),
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// Every half-width multiplied by `k`.
     pub fn scaled(&self, k: f64) -> Self {
         Self {

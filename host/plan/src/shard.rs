@@ -4,22 +4,28 @@
 //! world from its own stream (`montecarlo::trial_seed`), so shard `I/N` runs exactly the
 //! unsplit run's trials `i ≡ I (mod N)`, bit for bit, and the merge is their union.
 //!
-//! A shard file carries the whole run's key (plan, model, fixture, supports, uncertainty, seed,
-//! sample count); the merge refuses files of different runs, a shard count that disagrees,
-//! a shard given twice or missing, and any trial index missing or duplicated — naming the
-//! file and the problem — so a merged estimate is never silently partial.
+//! The file is the workspace's one shard shape, [`mesopush_core::shard::ShardFile`], keyed by
+//! the whole run ([`RunKey`]: plan, model, fixture, supports, uncertainty, seed, sample
+//! count), and the merge is [`mesopush_core::shard::merge`]: it refuses files of different
+//! runs, a shard count that disagrees, a shard given twice or missing, and any trial index
+//! missing, duplicated or in the wrong shard — naming the file and the problem — so a merged
+//! estimate is never silently partial.
 
-use super::montecarlo::{Estimate, MonteCarlo, Trial};
-use super::sampler::Uncertainty;
 use crate::Error;
-use mesopush_core::fsx::{read_json, write_json_atomic};
-use mesopush_core::shard::Shard;
+use crate::montecarlo::{MonteCarlo, SampleOutcome, SuccessEstimate};
+use crate::sampler::Uncertainty;
+use mesopush_core::fsx::read_json;
+use mesopush_core::shard::{self, Shard, ShardFile};
 use mesopush_sim::{Fixture, Model, Plan, SupportDistribution};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// Format version of [`ShardFile`].
-pub const SHARD_FORMAT: u32 = 1;
+/// Format version of a [`TrialShard`] file. 2: the core shard shape (`items`; format 1 called
+/// them `trials`).
+pub const SHARD_FORMAT: u32 = 2;
+
+/// What the merge calls itself in its errors.
+const MERGE: &str = "robustness merge";
 
 /// What makes two shards parts of the same run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -40,93 +46,68 @@ pub struct RunKey {
     pub samples: u64,
 }
 
-/// One shard's trials, as written by `mesopush robustness --shard I/N`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ShardFile {
-    /// [`SHARD_FORMAT`].
-    pub format: u32,
-    /// The run this shard belongs to.
-    pub key: RunKey,
-    /// Which shard.
-    pub shard: Shard,
-    /// (trial index, result), index order.
-    pub trials: Vec<(u64, Trial)>,
+/// One shard's trials, as `mesopush robustness run --shard I/N` writes them: the run's key and
+/// `(trial index, outcome)` pairs in index order.
+pub type TrialShard = ShardFile<RunKey, SampleOutcome>;
+
+/// Runs shard `shard` of `mc` (`samples` trials in all, master seed `seed`).
+pub fn run(
+    mc: &MonteCarlo<'_>,
+    samples: u64,
+    seed: u64,
+    shard: Shard,
+    tick: &(dyn Fn() + Sync),
+) -> Result<TrialShard, Error> {
+    let indices: Vec<u64> = (0..samples).filter(|&i| shard.owns(i)).collect();
+    let trials = mc.trials_at(&indices, seed, tick)?;
+    let key = RunKey {
+        plan: mc.plan.clone(),
+        model: mc.model.clone(),
+        fixture: mc.fixture.clone(),
+        supports: mc.supports.to_vec(),
+        uncertainty: mc.uncertainty,
+        seed,
+        samples,
+    };
+    let items = indices.into_iter().zip(trials).collect();
+    Ok(ShardFile { format: SHARD_FORMAT, key, shard, items })
 }
 
-impl ShardFile {
-    /// Runs shard `shard` of `mc` (`samples` trials in all, master seed `seed`).
-    pub fn run(
-        mc: &MonteCarlo<'_>,
-        samples: u64,
-        seed: u64,
-        shard: Shard,
-        tick: &(dyn Fn() + Sync),
-    ) -> Result<Self, Error> {
-        let indices: Vec<u64> = (0..samples).filter(|&i| shard.owns(i)).collect();
-        let trials = mc.trials_at(&indices, seed, tick)?;
-        let key = RunKey {
-            plan: mc.plan.clone(),
-            model: mc.model.clone(),
-            fixture: mc.fixture.clone(),
-            supports: mc.supports.to_vec(),
-            uncertainty: mc.uncertainty,
-            seed,
-            samples,
-        };
-        let trials = indices.into_iter().zip(trials).collect();
-        Ok(Self { format: SHARD_FORMAT, key, shard, trials })
+/// Reads a shard file (written with [`ShardFile::write`]), refusing another format version
+/// before reading the rest (a format-1 file would otherwise fail on its field names).
+pub fn load(path: &Path) -> Result<TrialShard, Error> {
+    /// The field every format has.
+    #[derive(Deserialize)]
+    struct Format {
+        format: u32,
     }
-
-    /// Writes the file (a synced temporary then a rename: a killed run leaves no half file).
-    pub fn save(&self, path: &Path) -> Result<(), Error> {
-        Ok(write_json_atomic(path, self)?)
+    let Format { format } = read_json(path)?;
+    if format != SHARD_FORMAT {
+        let m = format!(
+            "shard file format {format}; this build reads format {SHARD_FORMAT} (run the shard again)"
+        );
+        return Err(Error::parse(path, m));
     }
-
-    /// Reads a file written by [`ShardFile::save`].
-    pub fn load(path: &Path) -> Result<Self, Error> {
-        let f: Self = read_json(path)?;
-        if f.format != SHARD_FORMAT {
-            let msg = format!("shard format {} (this build reads {SHARD_FORMAT})", f.format);
-            return Err(Error::Parse { path: path.into(), message: msg });
-        }
-        Ok(f)
-    }
+    Ok(ShardFile::read(path, SHARD_FORMAT)?)
 }
 
 /// Merges the shards of one run into its estimate (trials in index order).
-pub fn merge(files: &[(PathBuf, ShardFile)]) -> Result<(RunKey, Estimate), Error> {
-    let bad =
-        |p: &Path, m: String| Error::invalid("robustness merge", format!("{}: {m}", p.display()));
-    let Some((p0, first)) = files.first() else {
-        return Err(Error::invalid("robustness merge", "no shard files given"));
-    };
-    for (p, f) in files {
-        if f.key != first.key {
-            return Err(bad(
-                p,
-                format!(
-                    "a different run than {} (plan, model, fixture, supports, uncertainty, seed or samples differ)",
-                    p0.display()
-                ),
-            ));
-        }
+pub fn merge(files: Vec<(PathBuf, TrialShard)>) -> Result<(RunKey, SuccessEstimate), Error> {
+    let (key, trials) = shard::merge(MERGE, files, |k: &RunKey| k.samples)?;
+    Ok((key, SuccessEstimate::from_trials(trials)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_of_another_format_is_refused_naming_the_file_and_both_formats() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("shard_old.json");
+        std::fs::write(&path, r#"{"format": 1, "key": {}, "shard": {}, "trials": []}"#).unwrap();
+        let e = load(&path).unwrap_err().to_string();
+        assert!(e.contains("shard_old.json") && e.contains("format 1"), "{e}");
+        assert!(e.contains(&format!("format {SHARD_FORMAT}")), "{e}");
     }
-    Shard::check_set("robustness merge", files.iter().map(|(p, f)| (p.as_path(), f.shard)))?;
-    let n = first.key.samples;
-    let mut slots: Vec<Option<Trial>> = vec![None; n as usize];
-    for (p, f) in files {
-        for (i, t) in &f.trials {
-            let ok = *i < n && f.shard.owns(*i);
-            let slot = slots.get_mut(*i as usize).filter(|_| ok);
-            match slot {
-                Some(s @ None) => *s = Some(t.clone()),
-                _ => return Err(bad(p, format!("trial {i} is not this shard's or appears twice"))),
-            }
-        }
-    }
-    let trials: Option<Vec<Trial>> = slots.into_iter().collect();
-    let trials = trials.ok_or_else(|| {
-        Error::invalid("robustness merge", "some trials are missing from their shard's file")
-    })?;
-    Ok((first.key.clone(), Estimate::from_trials(trials)))
 }

@@ -18,10 +18,10 @@
 //!   same check the search uses); start again from the shorter branch until no single drop
 //!   helps or the attempt cap is reached.
 
-use super::rrt::RrtSettings;
-use super::steer::Steer;
-use super::tree::Tree;
 use crate::Error;
+use crate::rrt_settings::RrtSettings;
+use crate::steer::Steer;
+use crate::tree::Tree;
 
 /// One push of a branch: (boundary location, direction, length after touching in µm).
 pub type Push = (usize, usize, f64);

@@ -68,11 +68,11 @@ impl Skeleton {
     }
 
     /// The best design found for Table II's start on the paper's fixture: the shipped
-    /// `plans/robust.toml` (`plan --robust --from-table2 --seed 2`, a search from Table II's
+    /// `plans/robust.toml` (`plan robust --from-table2 --seed 2`, a search from Table II's
     /// numbers; 96.2 % and 95.9 % on 1000 fresh draws of seeds 12345 and 777).
-    /// `plan --robust --from-shipped` starts here to refine or re-check it; the default
+    /// `plan robust --from-shipped` starts here to refine or re-check it; the default
     /// search starts at [`Skeleton::table2_like`] with its press moved onto the rotated peg
-    /// ([`super::press_start`], docs/planning.md).
+    /// (`press_start`, docs/planning.md).
     pub fn best_known() -> Self {
         Self {
             params: [

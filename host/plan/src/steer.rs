@@ -1,12 +1,13 @@
 //! Growing the RRT: turning a chosen push into a connected probe path (retract, go around
 //! the peg, approach, push), simulating it, and the direct connection to the goal.
 
-use super::clearance::{Obstacles, first_wall_violation};
-use super::pushes::{DIRECTIONS, Location, PushStart, push_start, simulate};
-use super::route::route;
-use super::rrt::{RrtSettings, plan_is_feasible};
-use super::tree::{Node, Tree, angle_diff_mod_pi, pose_distance};
 use crate::Error;
+use crate::clearance::{Obstacles, first_wall_violation};
+use crate::feasible::plan_is_feasible;
+use crate::pushes::{DIRECTIONS, Location, PushStart, push_start, simulate};
+use crate::route::route;
+use crate::rrt_settings::RrtSettings;
+use crate::tree::{Node, Tree, angle_diff_mod_pi, pose_distance};
 use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
 use mesopush_sim::{Plan, Simulator};
 use rand::RngExt;

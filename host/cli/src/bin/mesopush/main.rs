@@ -38,12 +38,10 @@ enum Command {
     Lcp(cmd_lcp::LcpArgs),
     /// Render a synthetic microscope sequence (PNG frames, frames.csv, truth.csv, bg.png).
     Render(cmd_render::RenderArgs),
-    /// Design a pushing plan with the paper's RRT over simulated pushes; writes plan TOML.
+    /// Design a pushing plan, written as plan TOML: `plan rrt` (the paper's RRT) or `plan robust`.
     Plan(cmd_plan::PlanArgs),
     /// Monte Carlo success probability of plans under start-pose, support and friction error.
     Robustness(cmd_robustness::RobustnessArgs),
-    /// Merge `robustness --shard` outputs into the unsplit run's estimate, figure and CSV.
-    RobustnessMerge(cmd_robustness::MergeArgs),
     /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
     Track(cmd_track::TrackArgs),
     /// Identify probe friction and supports from unconstrained pushing trials (Table I).
@@ -83,7 +81,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Batch(args) => cmd_batch::run(&args),
         Command::Plan(args) => cmd_plan::run(&args),
         Command::Robustness(args) => cmd_robustness::run(&args),
-        Command::RobustnessMerge(args) => cmd_robustness::merge(&args),
         Command::Flash(args) => cmd_flash::run(&args),
         Command::Run(args) => cmd_run::run(&args),
     }

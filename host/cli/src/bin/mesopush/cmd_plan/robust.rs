@@ -1,78 +1,122 @@
-//! `mesopush plan --robust`: the robust design's settings from the flags, its time limit,
-//! the fresh check of the designed plan and its report.
+//! `mesopush plan robust`: the robust search's settings from the flags, the search (with its
+//! budget and fresh check, `mesopush_plan::search_robust`), the plan written and the report
+//! printed.
 
-use super::{PlanArgs, bar, figure};
+use super::{CommonArgs, bar, load_world};
 use anyhow::{Context, Result};
-use mesopush_plan::pushes::pushing_moves;
+use clap::Args;
+use mesopush_plan::figures::draw_replayed_plan;
+use mesopush_plan::skeleton::NAMES;
 use mesopush_plan::{
-    MonteCarlo, RobustSettings, Skeleton, Uncertainty, World, design_robust, plan_is_feasible,
+    RobustReport, RobustSearch, RobustSettings, Skeleton, UncertainWorld, search_robust,
 };
-use mesopush_sim::{Plan, Simulator, replay};
-use rand::SeedableRng;
+use mesopush_sim::Plan;
 use serde_json::json;
-use std::time::Instant;
 
-pub(super) fn run_robust(args: &PlanArgs, sim: &mut Simulator) -> Result<()> {
+/// The robust search's options.
+#[derive(Debug, Args)]
+pub(super) struct RobustArgs {
+    #[command(flatten)]
+    common: CommonArgs,
+    /// CEM generations per round.
+    #[arg(long, default_value_t = RobustSettings::default().generations)]
+    generations: usize,
+    /// Sampled worlds each candidate is scored on.
+    #[arg(long, default_value_t = RobustSettings::default().samples)]
+    train_samples: usize,
+    /// Simulator step of the training replays, µm (validation and the check use the
+    /// full-fidelity default).
+    #[arg(long, default_value_t = RobustSettings::default().train_step_um)]
+    train_step_um: f64,
+    /// Score every generation on one common set of training worlds instead of drawing new
+    /// ones each generation.
+    #[arg(long)]
+    common_worlds: bool,
+    /// Scale of the uncertainty box the training worlds are drawn from (the validation and
+    /// the check use the default box).
+    #[arg(long, default_value_t = RobustSettings::default().train_scale)]
+    train_scale: f64,
+    /// Most CEM rounds (another runs only while no finalist reaches --accept-rate on the
+    /// validation worlds).
+    #[arg(long, default_value_t = RobustSettings::default().rounds)]
+    rounds: usize,
+    /// Validation success rate that ends the search after a round.
+    #[arg(long, default_value_t = RobustSettings::default().accept_rate)]
+    accept_rate: f64,
+    /// Start the search at the shipped design (plans/robust.toml's parameters) instead of
+    /// Table II's numbers with the press on the rotated peg's right end. It then refines that
+    /// design and mostly returns it unchanged: a check of the shipped plan, not a design from
+    /// scratch.
+    #[arg(long, conflicts_with = "from_table2")]
+    from_shipped: bool,
+    /// Start the search at Table II's numbers alone (the press over the middle of the
+    /// rotated peg, at the height that centres a level one); it finds a design of 95 % or
+    /// more less often than the default start (docs/planning.md).
+    #[arg(long)]
+    from_table2: bool,
+    /// Candidates per CEM generation.
+    #[arg(long, default_value_t = RobustSettings::default().population)]
+    population: usize,
+    /// Best candidates that set the next generation's distribution.
+    #[arg(long, default_value_t = RobustSettings::default().elite)]
+    elite: usize,
+    /// Candidates re-scored on the validation worlds.
+    #[arg(long, default_value_t = RobustSettings::default().finalists)]
+    finalists: usize,
+    /// Validation worlds the best candidates are re-scored on.
+    #[arg(long, default_value_t = RobustSettings::default().validation_samples)]
+    validation_samples: usize,
+    /// The most validated finalists re-scored on fresh confirmation worlds.
+    #[arg(long, default_value_t = RobustSettings::default().confirm_top)]
+    confirm_top: usize,
+    /// Confirmation worlds (0: the most validated finalist wins).
+    #[arg(long, default_value_t = RobustSettings::default().confirm_samples)]
+    confirm_samples: usize,
+    /// Fresh Monte Carlo trials for the reported success rate.
+    #[arg(long, default_value_t = RobustSearch::default().check_samples)]
+    check_samples: usize,
+    /// Master seed of the fresh check (default: derived from --seed, never the design's own
+    /// draws).
+    #[arg(long)]
+    check_seed: Option<u64>,
+}
+
+pub(super) fn run(args: &RobustArgs) -> Result<()> {
+    let c = &args.common;
+    let mut sim = load_world(c.model.as_deref(), c.fixture.as_deref())?;
     let mut start = Plan::table2().peg_start;
-    if let Some(p) = args.start {
+    if let Some(p) = c.start {
         (start.x_um, start.y_um, start.theta_deg) = (p.x_um, p.y_um, p.theta_rad.to_degrees());
     }
-    let settings = robust_settings(args);
+    let search = RobustSearch {
+        design: robust_settings(args),
+        seed: c.seed,
+        time_limit_s: c.time_limit_s,
+        check_samples: args.check_samples,
+        check_seed: args.check_seed,
+    };
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
     let sim_settings = sim.settings().clone();
-    let world = World::nominal(&model, &fixture, &sim_settings);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
-    let bar = bar((settings.generations * settings.rounds) as u64, args.json);
-    let t0 = Instant::now();
-    let limit = args.time_limit_s;
-    let mut time_limited = false;
+    let world = UncertainWorld::nominal(&model, &fixture, &sim_settings);
+    let bar = bar((search.design.generations * search.design.rounds) as u64, c.json);
     let mut on_progress = |g: usize, best: f64| {
         bar.set_position(g as u64);
         bar.set_message(format!("best {:.1} %", 100.0 * best));
-        let go_on = fits_another_generation(&settings, g, t0.elapsed().as_secs_f64(), limit);
-        time_limited |= !go_on && g < settings.generations * settings.rounds;
-        go_on
     };
-    let r = design_robust(&world, start, &settings, &mut rng, &mut on_progress)?;
-    let planning_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let report = search_robust(&world, start, &search, &mut on_progress)?;
     bar.finish_and_clear();
-    let feasible = plan_is_feasible(sim, &r.plan)?;
-    let mc = MonteCarlo {
-        plan: &r.plan,
-        model: &model,
-        fixture: &fixture,
-        settings: &sim_settings,
-        uncertainty: Uncertainty::default(),
-        supports: &[],
-    };
-    // Fresh draws (a different master seed from the training worlds') for an honest figure.
-    let check_seed = args.check_seed.unwrap_or(args.seed.wrapping_add(0x005E_ED0F_C4EC));
-    let est = mc.estimate(args.check_samples.max(1), check_seed, &|| ())?;
-    std::fs::write(&args.out, r.plan.to_toml())
-        .with_context(|| format!("writing {}", args.out.display()))?;
-    if let Some(fig) = &args.figure {
-        figure(sim, &r.plan, fig)?;
+    let plan = &report.design.plan;
+    std::fs::write(&c.out, plan.to_toml())
+        .with_context(|| format!("writing {}", c.out.display()))?;
+    if let Some(fig) = &c.figure {
+        draw_replayed_plan(&mut sim, plan, fig)?;
     }
-    let pushes = pushing_moves(&replay(sim, &r.plan, None)?);
-    let train = settings.samples;
-    let out = RobustOutput {
-        result: &r,
-        est: &est,
-        feasible,
-        planning_ms,
-        train,
-        pushes,
-        time_limited,
-        check_seed,
-        validation_samples: settings.validation_samples,
-        confirmation_samples: settings.confirm_samples,
-    };
-    print_robust(args, &out);
+    print(c, &report);
     Ok(())
 }
 
 /// The optimiser's settings from the flags.
-fn robust_settings(args: &PlanArgs) -> RobustSettings {
+fn robust_settings(args: &RobustArgs) -> RobustSettings {
     RobustSettings {
         generations: args.generations.max(1),
         samples: args.train_samples.max(2),
@@ -93,47 +137,10 @@ fn robust_settings(args: &PlanArgs) -> RobustSettings {
     }
 }
 
-/// Whether generation `g + 1` and the validation still fit in `limit_s` after `elapsed_s`.
-fn fits_another_generation(
-    settings: &RobustSettings,
-    g: usize,
-    elapsed_s: f64,
-    limit_s: f64,
-) -> bool {
-    // A generation is about 16 candidates on 96 worlds × 3/4 each (racing).
-    let per_gen = (settings.population * settings.samples * 3 / 4).max(1) as f64;
-    let val = (settings.finalists * settings.validation_samples) as f64;
-    let conf = (settings.confirm_top * settings.confirm_samples) as f64;
-    let gen_s = elapsed_s / g.max(1) as f64;
-    // Validation runs at the fine step, on the default box: about 1.7 times the cost of a
-    // training replay (one core: 1000 fine replays take 3.35 s in `mesopush robustness`, and
-    // seed 3's search ran 7400 training and 6000 fine replays in 35 s); 2 (3 until issue 6's
-    // round 4, which stopped that search after 6 of its 12 generations) keeps a margin. At the end of a round its own validation runs
-    // before the next round's first generation: reserve both. The confirmation runs once,
-    // at the very end.
-    let fine_s = |replays: f64| gen_s * 2.0 * replays / per_gen;
-    let round_end = g % settings.generations.max(1) == 0;
-    let next = gen_s + fine_s(val * if round_end { 2.0 } else { 1.0 } + conf);
-    elapsed_s + 1.2 * next < limit_s
-}
-
-struct RobustOutput<'a> {
-    result: &'a mesopush_plan::RobustResult,
-    est: &'a mesopush_plan::Estimate,
-    feasible: bool,
-    planning_ms: f64,
-    train: usize,
-    pushes: usize,
-    time_limited: bool,
-    check_seed: u64,
-    validation_samples: usize,
-    confirmation_samples: usize,
-}
-
-fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
-    let (r, est, feasible, planning_ms) = (o.result, o.est, o.feasible, o.planning_ms);
+fn print(c: &CommonArgs, o: &RobustReport) {
+    let (r, est) = (&o.design, &o.check);
     let summary = json!({
-        "found": true, "robust": true, "nominal_feasible": feasible,
+        "found": true, "robust": true, "nominal_feasible": o.nominal_feasible,
         "success_rate": est.success_rate, "ci_low": est.ci_low, "ci_high": est.ci_high,
         "samples": est.samples, "check_seed": o.check_seed, "training_rate": r.training_rate,
         "validation_rate": r.validation_rate, "confirmation_rate": r.confirmation_rate,
@@ -142,40 +149,38 @@ fn print_robust(args: &PlanArgs, o: &RobustOutput<'_>) {
         "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
         "iterations": r.evaluations, "generations": r.generations, "rounds": r.rounds,
         "validation_samples": o.validation_samples, "confirmation_samples": o.confirmation_samples,
-        "planning_ms": planning_ms, "seed": args.seed, "plan": &args.out,
-        "parameters": mesopush_plan::skeleton::NAMES.iter().zip(r.skeleton.params)
+        "planning_ms": o.planning_ms, "seed": c.seed, "plan": &c.out,
+        "parameters": NAMES.iter().zip(r.skeleton.params)
             .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
     });
-    if args.json {
+    if c.json {
         println!("{summary}");
-    } else {
-        println!(
-            "robust plan: {} (nominal replay {})",
-            args.out.display(),
-            if feasible { "inserts" } else { "does NOT insert" }
-        );
-        println!(
-            "success on {} fresh trials: {:.1} % (95 % interval {:.1}–{:.1} %); on the {} training worlds {:.1} %",
-            est.samples,
-            100.0 * est.success_rate,
-            100.0 * est.ci_low,
-            100.0 * est.ci_high,
-            o.train,
-            100.0 * r.training_rate
-        );
-        println!(
-            "on the {} validation worlds {:.1} %; {} candidates in {} generations of {} \
-             rounds ({} replays), {planning_ms:.0} ms{}",
-            o.validation_samples,
-            100.0 * r.validation_rate.unwrap_or(f64::NAN),
-            r.evaluations,
-            r.generations,
-            r.rounds,
-            r.trials,
-            if o.time_limited { " (cut by --time-limit-s)" } else { "" }
-        );
-        if let Some(c) = r.confirmation_rate {
-            println!("on the {} confirmation worlds {:.1} %", o.confirmation_samples, 100.0 * c);
-        }
+        return;
+    }
+    let inserts = if o.nominal_feasible { "inserts" } else { "does NOT insert" };
+    println!("robust plan: {} (nominal replay {inserts})", c.out.display());
+    println!(
+        "success on {} fresh trials: {:.1} % (95 % interval {:.1}–{:.1} %); on the {} training worlds {:.1} %",
+        est.samples,
+        100.0 * est.success_rate,
+        100.0 * est.ci_low,
+        100.0 * est.ci_high,
+        o.training_samples,
+        100.0 * r.training_rate
+    );
+    println!(
+        "on the {} validation worlds {:.1} %; {} candidates in {} generations of {} \
+         rounds ({} replays), {:.0} ms{}",
+        o.validation_samples,
+        100.0 * r.validation_rate.unwrap_or(f64::NAN),
+        r.evaluations,
+        r.generations,
+        r.rounds,
+        r.trials,
+        o.planning_ms,
+        if o.time_limited { " (cut by --time-limit-s)" } else { "" }
+    );
+    if let Some(conf) = r.confirmation_rate {
+        println!("on the {} confirmation worlds {:.1} %", o.confirmation_samples, 100.0 * conf);
     }
 }
