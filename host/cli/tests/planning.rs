@@ -125,6 +125,10 @@ fn robust_plan_cli_reports_the_fresh_check_and_the_design_figures() {
         .args(["--train-samples", "4", "--validation-samples", "4", "--check-samples", "6"])
         .args(["--check-seed", "99", "--rounds", "2", "--accept-rate", "1.01", "--out"])
         .arg(&out)
+        // The search's budget is wall time (60 s by default): on a loaded machine the first
+        // round's confirmation reserve can end it after one round. A long limit makes the
+        // round count depend on --rounds alone, which is what this test checks.
+        .args(["--time-limit-s", "600"])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
