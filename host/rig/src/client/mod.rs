@@ -10,8 +10,8 @@
 //!   [`schedule`]: the setpoint schedule rebuilt from the flashed plan; [`tracking`]: a
 //!   tracked frame as a pose.csv row.
 //!
-//! May use: the crates below rig (core, sim, vision, trial, protocol, executor for its wire
-//! types, plan geometry and clock). Never the simulated plant (`plant`) nor the loop drivers
+//! May use: the crates below rig (core, sim, vision, trial, protocol; executor for its plan
+//! geometry and clock). Never the simulated plant (`plant`) nor the loop drivers
 //! (`drive`): a client talks to whatever executor is at the other end of the line, real or
 //! simulated.
 
