@@ -1,4 +1,4 @@
-//! The batch's plan policy after the start camera ([`mesopush_rig::start_camera`]): among the
+//! The batch's plan policy after the start camera ([`mesopush_rig::plant::start_camera`]): among the
 //! batch's plans choose the one whose nominal start is nearest the estimate (position distance
 //! plus the part's characteristic length × angle difference), then shift its probe start by
 //! the estimate's offset from that nominal start, so the probe meets the peg where the plan

@@ -7,7 +7,7 @@
 //!
 //! Before the trial, a pre-trial frame of the world (same renderer, tracker and camera
 //! calibration as the world's camera; the batch's `[camera]` faults) gives the start pose
-//! the plan is chosen and shifted for (see [`mesopush_rig::start_camera`], [`super::policy`]). The peg start comes from
+//! the plan is chosen and shifted for (see [`mesopush_rig::plant::start_camera`], [`super::policy`]). The peg start comes from
 //! the batch (the world file's own `perturb` is ignored so the start is perturbed once).
 //! The batch's `camera.film_period_us`, when set, replaces the world camera's frame period.
 //! Cancellation: the loop's progress callback checks the cancel flag every 0.1 s of
@@ -18,7 +18,7 @@ use super::runner::{Cancel, TrialJob, TrialResult, TrialRunner, TrialVerdict};
 use super::sim_runner::no_start_pose;
 use super::spec::StartCameraSpec;
 use crate::Error;
-use mesopush_rig::start_camera::Camera;
+use mesopush_rig::plant::start_camera::Camera;
 use mesopush_rig::{ClockMode, FaultCount, TrialReport, TrialSpec, WorldFile, run_trial};
 use mesopush_sim::Fixture;
 use mesopush_trial::{TrialMeta, TrialState};
@@ -81,7 +81,7 @@ fn verdict(r: &TrialReport) -> (TrialVerdict, String) {
         format!(
             "peg wedged, needle deflected up to {:.0} µm (limit {:.0} µm) in {} jam(s)",
             r.max_deflection_um,
-            mesopush_rig::world::NEEDLE_DEFLECTION_LIMIT_UM,
+            mesopush_rig::plant::truth::NEEDLE_DEFLECTION_LIMIT_UM,
             r.jams
         )
     });
@@ -145,7 +145,7 @@ impl TrialRunner for RigRunner {
             clock: ClockMode::Simulated,
             peg_start: Some(job.peg_start),
         };
-        let mut progress = |_p: mesopush_rig::Progress| {
+        let mut progress = |_p: mesopush_rig::TrialProgress| {
             if cancel.is_cancelled() {
                 std::panic::resume_unwind(Box::new(Cancelled));
             }

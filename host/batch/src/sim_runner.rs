@@ -1,5 +1,5 @@
 //! The `sim` runner: the host simulator stands in for the rig. Per trial: the synthetic
-//! camera estimates the start (see [`mesopush_rig::start_camera`], [`super::policy`]), the plan is chosen and shifted for
+//! camera estimates the start (see [`mesopush_rig::plant::start_camera`], [`super::policy`]), the plan is chosen and shifted for
 //! it, the quasi-static simulator replays that plan from the world's true (perturbed) start,
 //! and a real trial log is written with `TrialWriter`: probe.csv from the plan's path,
 //! pose.csv from the replay's samples (simulator truth), frames.csv from the camera phase,
@@ -12,7 +12,7 @@ use super::spec::StartCameraSpec;
 use crate::Error;
 use mesopush_core::geom::Pose;
 use mesopush_rig::FaultCount;
-use mesopush_rig::start_camera::{Camera, Estimate, FRAME_PERIOD_US};
+use mesopush_rig::plant::start_camera::{Camera, FRAME_PERIOD_US, StartEstimate};
 use mesopush_sim::{Fixture, Model, Replay, SimSettings, Simulator, replay};
 use mesopush_trial::{EventRow, Outcome, PoseRow, ProbeRow, TrialMeta, TrialState, TrialWriter};
 use mesopush_vision::{Calibration, RenderSettings};
@@ -200,7 +200,7 @@ impl TrialRunner for SimRunner {
 pub(super) fn no_start_pose(
     dir: &Path,
     meta: TrialMeta,
-    e: &Estimate,
+    e: &StartEstimate,
     mut out: TrialResult,
 ) -> Result<TrialResult, Error> {
     let mut w = TrialWriter::create(dir, meta)?;

@@ -116,8 +116,8 @@ fn default_frames() -> u32 {
 
 impl StartCameraSpec {
     /// The faults the start camera injects and how long it tries.
-    pub fn frame_faults(&self) -> mesopush_rig::start_camera::FrameFaults {
-        mesopush_rig::start_camera::FrameFaults {
+    pub fn frame_faults(&self) -> mesopush_rig::plant::start_camera::FrameFaults {
+        mesopush_rig::plant::start_camera::FrameFaults {
             max_frames: self.max_frames,
             frame_drop: self.frame_drop,
             frame_black: self.frame_black,

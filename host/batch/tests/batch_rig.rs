@@ -12,7 +12,7 @@ use mesopush_batch::stats::{Loaded, summarize};
 use mesopush_batch::{BatchConfig, BatchSpec, TrialVerdict, merge, report, run, runner_factory};
 use mesopush_core::geom::{Pose, Vec2};
 use mesopush_core::shard::Shard;
-use mesopush_rig::world::NEEDLE_DEFLECTION_LIMIT_UM;
+use mesopush_rig::plant::truth::NEEDLE_DEFLECTION_LIMIT_UM;
 use mesopush_sim::Fixture;
 use mesopush_trial::Trial;
 use std::path::{Path, PathBuf};

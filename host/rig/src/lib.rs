@@ -1,42 +1,31 @@
-//! The whole loop without hardware (issue 5): the host flashes a plan into the executor,
-//! which streams it to the firmware simulator's controller over a real pseudo-terminal; the
-//! simulated stage moves the probe in a simulated world (the host's simulator with the
-//! world's own model) that a simulated camera films; the executor stamps the frames, the
-//! recorder writes the trial directory, the host tracks the frames and judges the result.
+//! mesopush-rig: the whole loop without hardware (issue 5), and the host's side of a real
+//! one. The host flashes a plan into the executor, which streams it to the firmware
+//! simulator's controller over a real pseudo-terminal; the simulated stage moves the probe in
+//! a simulated world (the host's simulator with the world's own model) that a simulated
+//! camera films; the executor stamps the frames, the recorder writes the trial directory, the
+//! host tracks the frames and judges the result.
 //!
-//! - [`world_file`]: the world file (`worlds/*.toml`); [`world`]: the `World` the firmware
-//!   simulator asks for poses and frames; [`needle`]: where the needle's tip rests.
-//! - [`session`]: the host's side of the executor line (flash, arm, start, wait).
-//! - [`pty`]: the lock-stepped pseudo-terminal; [`simloop`]: the loop in simulated time;
-//!   [`realtime`]: the same parts on threads in real time.
-//! - [`recorder`]: log records and frames → trial directory (+ tracking).
-//! - [`trial`]: [`run_trial`], [`TrialSpec`], [`TrialReport`]; [`truth_log`]: truth.csv and
-//!   jam events; [`figure`]: tracked vs
-//!   simulated trajectory figure.
+//! Three modules, with one-way dependencies between them (drive → plant, drive → client;
+//! plant and client use neither each other nor drive):
+//! - [`plant`]: the simulated physical world and the controller's side — world file, world,
+//!   needle, painter, truth, the served controller, the `mesopush-fwsim` process, the start
+//!   camera.
+//! - [`client`]: the client of an executor — the host session, the line to an executor
+//!   process, the hardware-in-the-loop workflow, completing a recorded trial.
+//! - [`drive`]: the loop drivers — [`run_trial`] in simulated or real time, the recorder,
+//!   the fault counts and the trial figure.
+//!
+//! May depend on: mesopush-core, -sim, -vision, -trial, -plot, -protocol, -executor and
+//! -firmware-sim. Never on mesopush-ident, -plan, -diagnose, -batch or -cli (they build on
+//! this crate).
 
-pub(crate) mod build;
-pub mod complete;
-pub mod ctrl_serve;
+pub mod client;
+pub mod drive;
 pub mod error;
-pub mod faults;
-pub mod figure;
-pub mod fwsim;
-pub mod hil;
-pub mod hostlink;
-pub mod needle;
-pub mod painter;
-pub mod pty;
-pub mod realtime;
-pub mod recorder;
-pub mod session;
-pub mod simloop;
-pub mod start_camera;
-pub mod trial;
-pub mod truth_log;
-pub mod world;
-pub mod world_file;
+pub mod plant;
 
+pub use drive::faults::{FaultClasses, FaultCount};
+pub use drive::spec::{ClockMode, TrialProgress, TrialReport, TrialSpec};
+pub use drive::trial::run_trial;
 pub use error::Error;
-pub use faults::{FaultClasses, FaultCount};
-pub use trial::{ClockMode, Progress, TrialReport, TrialSpec, run_trial};
-pub use world_file::WorldFile;
+pub use plant::world_file::WorldFile;

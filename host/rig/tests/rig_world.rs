@@ -1,9 +1,9 @@
-//! The firmware simulator's world (`rig::world`) against the simulator it wraps: the peg must
-//! go where the stage's path, replayed by the simulator alone, puts it.
+//! The firmware simulator's world (`rig::plant::world`) against the simulator it wraps: the
+//! peg must go where the stage's path, replayed by the simulator alone, puts it.
 
 use mesopush_core::geom::{Pose, Vec2};
 use mesopush_firmware_sim::World;
-use mesopush_rig::world::{RigWorld, WorldSetup};
+use mesopush_rig::plant::world::{RigWorld, WorldSetup};
 use mesopush_sim::advance::advance;
 use mesopush_sim::effects::Effects;
 use mesopush_sim::{Fixture, Model, SimSettings, SimState, Simulator};

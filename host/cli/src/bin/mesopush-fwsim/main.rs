@@ -1,13 +1,13 @@
 //! `mesopush-fwsim`: the firmware simulator as its own process, as on a rig. Serves the
 //! simulated motion controller on a pseudo-terminal (prints its path) and the 30 Hz camera on
 //! a Unix socket (prints its address) in real time, until the executor closes the line or the
-//! process is killed. Thin over `mesopush_rig::fwsim` (docs/hil.md).
+//! process is killed. Thin over `mesopush_rig::plant::fwsim` (docs/hil.md).
 
 use anyhow::Context;
 use clap::Parser;
 use mesopush_executor::shell::rt::{RtOptions, apply};
 use mesopush_rig::WorldFile;
-use mesopush_rig::fwsim::{Fwsim, FwsimOptions};
+use mesopush_rig::plant::fwsim::{Fwsim, FwsimOptions};
 use mesopush_sim::Plan;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;

@@ -5,7 +5,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use mesopush_rig::figure::{TrialFigure, draw_trial};
+use mesopush_rig::drive::figure::{TrialFigure, draw_trial};
 use mesopush_rig::{ClockMode, TrialReport, TrialSpec, WorldFile, run_trial};
 use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
 use std::path::{Path, PathBuf};
@@ -89,7 +89,7 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<()> {
     if args.json {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
-    let mut progress = |p: mesopush_rig::Progress| {
+    let mut progress = |p: mesopush_rig::TrialProgress| {
         bar.set_position((1000.0 * (p.t_s / p.total_s).min(1.0)) as u64);
         bar.set_message(format!("{:.1} s of {:.0} s trial time", p.t_s, p.total_s));
     };

@@ -1,9 +1,9 @@
 //! `mesopush flash PLAN --port P`: uploads a plan to a running `mesopush-executor` over its
-//! host line (`unix:PATH` or a serial device). Thin over `mesopush_rig::hil::flash`.
+//! host line (`unix:PATH` or a serial device). Thin over `mesopush_rig::client::hil::flash`.
 
 use anyhow::Context;
 use clap::Args;
-use mesopush_rig::hil;
+use mesopush_rig::client::hil;
 use mesopush_sim::Plan;
 use std::path::PathBuf;
 

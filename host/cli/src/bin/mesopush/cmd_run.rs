@@ -1,14 +1,14 @@
 //! `mesopush run --port P`: arms and starts the plan flashed into a running
 //! `mesopush-executor`, follows the trial to its end, then completes the executor's
 //! recording into a trial log (trial.json, probe.csv, pose.csv) and prints the verdict.
-//! Thin over `mesopush_rig::hil::run`.
+//! Thin over `mesopush_rig::client::hil::run`.
 
 use anyhow::Context;
 use clap::Args;
 use mesopush_core::geom::Vec2;
 use mesopush_executor::ExecutorConfig;
 use mesopush_rig::WorldFile;
-use mesopush_rig::hil::{self, RunOptions, RunReport};
+use mesopush_rig::client::hil::{self, RunOptions, RunReport};
 use mesopush_sim::Plan;
 use std::path::{Path, PathBuf};
 

@@ -26,20 +26,21 @@
 //! (both `CLOCK_MONOTONIC` µs) and the true peg and probe tip, flushed per row — the ground
 //! truth `mesopush run --truth` compares with; never read by identification or diagnosis.
 
-use super::build::{Built, build};
+use super::assemble::{Assembled, CameraTiming, assemble};
+use super::controller::{applied_segments, controller};
 use super::ctrl_serve::{LineState, ServedController};
-use super::recorder::encode_png;
-use super::simloop::CameraTiming;
-use super::world::{RigWorld, TruthSample};
-use super::world_file::WorldFile;
+use super::frame_png::encode_png;
+use super::truth::TruthSample;
+use super::world::RigWorld;
+use super::world_file::{WorldFile, realtime_faults};
 use crate::Error;
 use crossbeam_channel::{Sender, bounded};
 use mesopush_core::geom::Vec2;
 use mesopush_executor::clock::{Clock, MonotonicClock};
+use mesopush_firmware_sim::SimRng;
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
-use mesopush_firmware_sim::{ControllerNode, CtrlConfig, FaultConfig, SimRng};
-use mesopush_protocol::LinkConfig;
 use mesopush_protocol::camera::CameraFrameHeader;
+use mesopush_protocol::units::um_to_nm;
 use mesopush_sim::{Fixture, Plan};
 use mesopush_vision::Renderer;
 use rand::SeedableRng;
@@ -127,7 +128,7 @@ fn build_world(
     rng: &SimRng,
 ) -> Result<(RigWorld, CameraTiming, Painter), Error> {
     let ws = &opts.world.spec;
-    let Built { world, camera, render, .. } = build(&opts.world, &opts.plan, None, rng)?;
+    let Assembled { world, camera, render, .. } = assemble(&opts.world, &opts.plan, None, rng)?;
     let walls = Fixture::paper().walls;
     let painter = Painter {
         renderer: Renderer::new(render, &walls)?,
@@ -142,6 +143,48 @@ fn io_err(what: impl AsRef<Path>, e: impl std::fmt::Display) -> Error {
     Error::io(what.as_ref(), std::io::Error::other(e.to_string()))
 }
 
+/// The controller served on a new pseudo-terminal (the slave's path returned: the executor
+/// opens it), the stage at the plan's start, with the camera, on `clock`.
+fn serve_controller(
+    opts: &FwsimOptions,
+    rng: &SimRng,
+    cam: CameraTiming,
+    clock: &MonotonicClock,
+) -> Result<(ServedController, String), Error> {
+    let faults = realtime_faults(&opts.world.spec.faults)?;
+    let (master, slave) = TTYPort::pair().map_err(|e| io_err("pty", e))?;
+    let path = slave.name().ok_or_else(|| io_err("pty", "the pty slave has no path"))?;
+    drop(slave); // the executor opens it by path; until then the master reads EIO
+    let [ox, oy] = opts.world.spec.stage.offset_um;
+    let p = opts.plan.probe_start() + Vec2::new(ox, oy);
+    let start_nm = (um_to_nm("stage start x", p.x)?, um_to_nm("stage start y", p.y)?);
+    let node = controller(faults, rng.fork(1), clock.now_us(), start_nm);
+    let camera = SimCamera::new(cam.period_us, cam.readout_us, cam.start_us, rng.fork(6), faults);
+    let ctrl = ServedController::new(master, node, camera).map_err(|e| io_err(&path, e))?;
+    Ok((ctrl, path))
+}
+
+/// Creates the truth file and writes its header.
+fn open_truth(path: &Path) -> Result<BufWriter<File>, Error> {
+    let mut truth = BufWriter::new(File::create(path).map_err(|e| Error::io(path, e))?);
+    writeln!(
+        truth,
+        "frame_seq,exposure_mono_us,stamp_mono_us,x_um,y_um,theta_rad,probe_x_um,probe_y_um"
+    )
+    .map_err(|e| Error::io(path, e))?;
+    Ok(truth)
+}
+
+/// Writes `fwsim-world.json` (the seed and the world's description); returns its path.
+fn write_world(opts: &FwsimOptions) -> Result<PathBuf, Error> {
+    let path = opts.run_dir.join("fwsim-world.json");
+    let description = serde_json::json!({ "seed": opts.seed, "world": opts.world.description() });
+    let text = serde_json::to_string_pretty(&description)
+        .map_err(|e| Error::invalid("fwsim-world.json", e.to_string()))?;
+    mesopush_core::fsx::write_atomic(&path, text.as_bytes())?;
+    Ok(path)
+}
+
 impl Fwsim {
     /// Builds the world, opens the pseudo-terminal and the camera socket, writes the
     /// background and the truth file's header.
@@ -152,42 +195,12 @@ impl Fwsim {
         let (mut world, cam, painter) = build_world(opts, &rng)?;
         let background = opts.run_dir.join("background.png");
         mesopush_core::fsx::write_atomic(&background, &encode_png(&world.background())?)?;
-        let faults = FaultConfig {
-            link_drop: 0.0,
-            link_corrupt: 0.0,
-            link_duplicate: 0.0,
-            link_delay: 0.0,
-            ..super::world_file::validated_faults(&opts.world.spec.faults)?
-        };
-        let (master, slave) = TTYPort::pair().map_err(|e| io_err("pty", e))?;
-        let controller = slave.name().ok_or_else(|| io_err("pty", "the pty slave has no path"))?;
-        drop(slave); // the executor opens it by path; until then the master reads EIO
         let clock = MonotonicClock::new();
-        let [ox, oy] = opts.world.spec.stage.offset_um;
-        let p = opts.plan.probe_start() + Vec2::new(ox, oy);
-        let start_nm = ((p.x * 1000.0).round(), (p.y * 1000.0).round());
-        let node = ControllerNode::new(
-            CtrlConfig::DEFAULT,
-            faults,
-            LinkConfig::DEFAULT,
-            rng.fork(1),
-            clock.now_us(),
-            start_nm,
-        );
-        let camera =
-            SimCamera::new(cam.period_us, cam.readout_us, cam.start_us, rng.fork(6), faults);
-        let ctrl =
-            ServedController::new(master, node, camera).map_err(|e| io_err(&controller, e))?;
+        let (ctrl, controller) = serve_controller(opts, &rng, cam, &clock)?;
         let sock = opts.run_dir.join("camera.sock");
         let listener = bind_camera(&sock)?;
         let truth_path = opts.run_dir.join("fwsim-truth.csv");
-        let mut truth =
-            BufWriter::new(File::create(&truth_path).map_err(|e| Error::io(&truth_path, e))?);
-        writeln!(
-            truth,
-            "frame_seq,exposure_mono_us,stamp_mono_us,x_um,y_um,theta_rad,probe_x_um,probe_y_um"
-        )
-        .map_err(|e| Error::io(&truth_path, e))?;
+        let truth = open_truth(&truth_path)?;
         let (camera_tx, camera_rx) = bounded(CAMERA_QUEUE);
         let unsent = Arc::new(AtomicU64::new(0));
         let u = unsent.clone();
@@ -197,12 +210,8 @@ impl Fwsim {
         let renderer = std::thread::spawn(move || {
             render_frames(painter, &render_rx, &camera_tx, &u, (truth, &tp))
         });
-        let world_path = opts.run_dir.join("fwsim-world.json");
-        let description =
-            serde_json::json!({ "seed": opts.seed, "world": opts.world.description() });
-        let text = serde_json::to_string_pretty(&description)
-            .map_err(|e| Error::invalid("fwsim-world.json", e.to_string()))?;
-        mesopush_core::fsx::write_atomic(&world_path, text.as_bytes())?;
+        let world_path = write_world(opts)?;
+        let [ox, oy] = opts.world.spec.stage.offset_um;
         let addrs = FwsimAddrs {
             controller,
             camera: sock,
@@ -249,8 +258,8 @@ impl Fwsim {
             frames,
             frames_unsent: self.unsent.load(Ordering::Relaxed),
             frames_render_dropped: self.render_dropped,
-            segments_applied: super::simloop::applied_segments(&self.ctrl.node.events).0,
-            jams: self.world.jam_events().len() as u64,
+            segments_applied: applied_segments(&self.ctrl.node.events).0,
+            jams: u64::try_from(self.world.jam_events().len()).unwrap_or(u64::MAX),
         })
     }
 

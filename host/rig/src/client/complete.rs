@@ -5,13 +5,14 @@
 //! rebuilt from the plan, with the controller's position reports), pose.csv (the host's
 //! tracker on every recorded frame) and the verdict. See docs/trial-log.md.
 
-use super::recorder::wrap_angle;
+use super::schedule::Schedule;
+use super::tracking::{pose_row, wrap_angle};
 use crate::Error;
 use mesopush_core::fsx::write_atomic;
 use mesopush_core::geom::{Pose, Vec2};
-use mesopush_executor::plan::{StepGeometry, path_position_nm};
 use mesopush_protocol::flash::PlanStep;
 use mesopush_protocol::host::ProbeTelemetry;
+use mesopush_protocol::units::{nm_to_um, um_to_nm_i64};
 use mesopush_sim::{Fixture, Model, Plan};
 use mesopush_trial::{
     CalibrationRecord, EventRow, FrameRow, Outcome, PoseRow, ProbeRow, Trial, TrialMeta, TrialState,
@@ -98,17 +99,7 @@ fn tracked_poses(
         last_index = Some(f.index);
         let image = load_gray(&dir.join(file))?;
         let m = tracker.track_after(&image, u32::try_from(periods).unwrap_or(u32::MAX))?;
-        let Some(p) = m.pose else { continue };
-        let row = PoseRow {
-            t_us: t,
-            x_um: p.x_um,
-            y_um: p.y_um,
-            theta_rad: p.theta_rad,
-            frame_index: Some(f.index),
-            residual_px: None,
-            probe_tip_x_um: m.probe_tip_um.map(|t| t.x),
-            probe_tip_y_um: m.probe_tip_um.map(|t| t.y),
-        };
+        let Some(row) = pose_row(t, f.index, &m) else { continue };
         out.push((row, m.is_flagged()));
     }
     Ok((out, tracker.apparent_scale()))
@@ -130,17 +121,22 @@ fn csv_bytes<T: Serialize>(path: &Path, rows: &[T]) -> Result<Vec<u8>, Error> {
 }
 
 /// probe.csv: one row per setpoint of the schedule, each report on its nearest row.
-fn probe_rows(c: &Completion) -> Vec<ProbeRow> {
-    let period = c.period_us.max(1);
-    let total_us: u64 = c.steps.iter().map(|s| StepGeometry::of(s).duration_us).sum();
+fn probe_rows(c: &Completion) -> Result<Vec<ProbeRow>, Error> {
     let start = c.plan.probe_start() + c.fixture_origin_um;
-    let start_nm = ((start.x * 1000.0).round() as i64, (start.y * 1000.0).round() as i64);
-    let n = total_us.div_ceil(period) + 1;
-    let mut rows: Vec<ProbeRow> = (0..n)
+    let schedule = Schedule {
+        steps: c.steps.clone(),
+        start_nm: (
+            um_to_nm_i64("probe start x", start.x)?,
+            um_to_nm_i64("probe start y", start.y)?,
+        ),
+        offset_um: c.fixture_origin_um,
+        period_us: c.period_us,
+        lead_us: c.lead_us,
+    };
+    let period = schedule.period();
+    let mut rows: Vec<ProbeRow> = (0..schedule.rows())
         .map(|k| {
-            let (x, y) =
-                path_position_nm(c.steps.iter().copied(), start_nm, (k * period).min(total_us));
-            let cmd = Vec2::new(x as f64 / 1000.0, y as f64 / 1000.0) - c.fixture_origin_um;
+            let cmd = schedule.row_cmd_um(k);
             ProbeRow {
                 t_us: (c.lead_us + k * period) as i64,
                 cmd_x_um: cmd.x,
@@ -157,12 +153,11 @@ fn probe_rows(c: &Completion) -> Vec<ProbeRow> {
         }
         let k = ((rel + period as i64 / 2).max(0) as u64 / period) as usize;
         if let Some(r) = rows.get_mut(k) {
-            let p = Vec2::new(f64::from(t.probe_x_nm), f64::from(t.probe_y_nm)) / 1000.0
-                - c.fixture_origin_um;
+            let p = Vec2::new(nm_to_um(t.probe_x_nm), nm_to_um(t.probe_y_nm)) - c.fixture_origin_um;
             (r.rep_x_um, r.rep_y_um) = (Some(p.x), Some(p.y));
         }
     }
-    rows
+    Ok(rows)
 }
 
 /// Completes the recorded directory `dir` (which holds frames.csv, frames/, events.csv and
@@ -172,7 +167,7 @@ pub fn complete_trial(dir: &Path, c: &Completion) -> Result<Completed, Error> {
     let (tracked, apparent_scale) = tracked_poses(dir, c, &frames)?;
     let poses: Vec<PoseRow> = tracked.iter().map(|t| t.0).collect();
     write_atomic(&dir.join("pose.csv"), &csv_bytes(&dir.join("pose.csv"), &poses)?)?;
-    write_atomic(&dir.join("probe.csv"), &csv_bytes(&dir.join("probe.csv"), &probe_rows(c))?)?;
+    write_atomic(&dir.join("probe.csv"), &csv_bytes(&dir.join("probe.csv"), &probe_rows(c)?)?)?;
     let fixture = Fixture::paper();
     let last = tracked.iter().rev().find(|t| !t.1).map(|t| t.0);
     let final_pose = last.map(|p| Pose::new(p.x_um, p.y_um, wrap_angle(p.theta_rad)));

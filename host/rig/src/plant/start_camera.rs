@@ -40,7 +40,7 @@ pub struct Camera {
 
 /// What the camera phase found.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct Estimate {
+pub struct StartEstimate {
     /// The tracked start pose, when a frame gave one.
     pub pose: Option<Pose>,
     /// One row per frame (times before the trial's start: negative).
@@ -76,8 +76,8 @@ impl Camera {
 
     /// Takes frames of the peg at `truth` (probe at `probe_um`) until one gives a pose or
     /// `max_frames` are spent.
-    pub fn estimate(&mut self, truth: Pose, probe_um: Vec2, rng: &mut impl Rng) -> Estimate {
-        let mut e = Estimate::default();
+    pub fn estimate(&mut self, truth: Pose, probe_um: Vec2, rng: &mut impl Rng) -> StartEstimate {
+        let mut e = StartEstimate::default();
         let n = self.spec.max_frames;
         for k in 0..n {
             let t_us = -(i64::from(n - k) * FRAME_PERIOD_US as i64);

@@ -5,11 +5,13 @@
 //! — and a [`Painter`] on another thread draws it. Used by the `mesopush-fwsim` process and by
 //! the in-process real-time loop.
 
-use crate::world::{RigWorld, TruthSample};
+use super::truth::TruthSample;
+use super::world::RigWorld;
 use image::GrayImage;
 use mesopush_core::geom::ConvexPolygon;
 use mesopush_firmware_sim::{PegPose, World};
 use mesopush_vision::{Renderer, Scene};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 /// The world as the controller loop sees it: physics only; `render` returns the ground truth
@@ -36,7 +38,7 @@ impl World for Deferred<'_> {
     }
 }
 
-/// What the renderer thread draws with (see [`RigWorld::painter`]).
+/// What the renderer thread draws with (see [`Painter::for_world`]).
 #[derive(Debug)]
 pub struct Painter {
     /// The renderer (static part of the picture cached).
@@ -50,6 +52,18 @@ pub struct Painter {
 }
 
 impl Painter {
+    /// What a renderer thread needs to draw `world`'s frames: a copy of its renderer, and a
+    /// noise stream of its own seeded from the world's, so frames can be drawn off the
+    /// controller's loop.
+    pub fn for_world(world: &mut RigWorld) -> Self {
+        Self {
+            renderer: world.renderer().clone(),
+            walls: world.fixture().walls.clone(),
+            peg: world.peg_body().clone(),
+            rng: ChaCha8Rng::seed_from_u64(world.next_noise_seed()),
+        }
+    }
+
     /// Draws `t` as an image.
     pub fn paint_image(&mut self, t: &TruthSample) -> GrayImage {
         let scene = Scene {

@@ -1,11 +1,10 @@
 //! The firmware simulator's controller served on a pseudo-terminal's master in real time:
 //! one [`ServedController::step`] reads what the executor wrote, runs the controller node,
 //! writes its frames back, moves the world to the stage's position and polls the camera.
-//! Used by the in-process real-time loop ([`super::realtime`]) and by the `mesopush-fwsim`
-//! process ([`super::fwsim`]).
+//! Used by the in-process real-time loop (the drive module's) and by the `mesopush-fwsim`
+//! process (`Fwsim`).
 
-use super::simloop::{EW, Q};
-use mesopush_firmware_sim::ControllerNode;
+use super::controller::Controller;
 use mesopush_firmware_sim::World;
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
 use mesopush_protocol::FRAME_BUF_LEN;
@@ -27,7 +26,7 @@ pub enum LineState {
 pub struct ServedController {
     master: TTYPort,
     /// The controller node (firmware core, its link and drifting clock).
-    pub node: ControllerNode<Q, EW>,
+    pub node: Controller,
     /// The camera.
     pub camera: SimCamera,
     buf: [u8; 512],
@@ -45,11 +44,7 @@ fn no_peer(e: &io::Error) -> bool {
 
 impl ServedController {
     /// Serves `node` on `master` (reads wait at most 1 ms) with `camera`.
-    pub fn new(
-        mut master: TTYPort,
-        node: ControllerNode<Q, EW>,
-        camera: SimCamera,
-    ) -> io::Result<Self> {
+    pub fn new(mut master: TTYPort, node: Controller, camera: SimCamera) -> io::Result<Self> {
         master
             .set_timeout(Duration::from_millis(1))
             .map_err(|e| io::Error::other(e.to_string()))?;

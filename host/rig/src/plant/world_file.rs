@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The default world, embedded (`worlds/default.toml`).
-pub const DEFAULT_WORLD_TOML: &str = include_str!("../../../worlds/default.toml");
+pub const DEFAULT_WORLD_TOML: &str = include_str!("../../../../worlds/default.toml");
 
 /// The world's physics: a model inline, or a path to a model TOML (relative to the world
 /// file), or (neither) the host's default model.
@@ -131,6 +131,18 @@ impl CameraSpec {
 pub fn validated_faults(f: &FaultConfig) -> Result<FaultConfig, Error> {
     f.validate().map_err(|e| Error::invalid("world faults", e.to_string()))?;
     Ok(*f)
+}
+
+/// The faults a real-time run injects: the stage's and the camera's, validated; not the
+/// line faults (in real time the lines are real).
+pub fn realtime_faults(f: &FaultConfig) -> Result<FaultConfig, Error> {
+    Ok(FaultConfig {
+        link_drop: 0.0,
+        link_corrupt: 0.0,
+        link_duplicate: 0.0,
+        link_delay: 0.0,
+        ..validated_faults(f)?
+    })
 }
 
 /// A parsed world file.

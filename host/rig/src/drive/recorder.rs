@@ -10,16 +10,22 @@
 //! nearest its receive time. The loop hands messages over a bounded channel: in real time a
 //! full channel drops the frame (counted, never waited for); in simulated time the loop waits
 //! (time is not real, and the run stays deterministic).
+//!
+//! It belongs to the drive module, not the client: it records what the in-process loop
+//! observes of the in-process executor (its log records, handed over as [`RecMsg`]); a real
+//! executor records its own frames, which the client completes. It shares the client's
+//! setpoint [`Schedule`] and pose rows ([`pose_row`]) so both trial logs read the same.
 
-use super::world::TruthSample;
 use crate::Error;
+use crate::client::schedule::Schedule;
+use crate::client::tracking::pose_row;
+use crate::plant::frame_png::encode_png;
 use image::GrayImage;
 use mesopush_core::geom::Vec2;
 use mesopush_executor::LogEvent;
 use mesopush_executor::camera::{SeqCheck, StampSource, StampedFrame};
-use mesopush_executor::plan::path_position_nm;
-use mesopush_protocol::flash::PlanStep;
 use mesopush_protocol::host::{ExecToHost, TrialEventKind};
+use mesopush_protocol::units::nm_to_um;
 use mesopush_trial::{EventRow, FrameRow, PoseRow, ProbeRow, TrialWriter};
 use mesopush_vision::{TrackSettings, Tracker};
 
@@ -45,32 +51,6 @@ pub enum RecMsg {
     /// Several messages in order (simulated time hands them over in batches: one channel
     /// operation, one wake-up of the recorder, per batch instead of per record).
     Batch(Vec<RecMsg>),
-}
-
-/// How the commanded path is rebuilt.
-#[derive(Debug, Clone)]
-pub struct Schedule {
-    /// The flashed steps.
-    pub steps: Vec<PlanStep>,
-    /// Probe start, stage nm.
-    pub start_nm: (i64, i64),
-    /// Fixture origin in stage coordinates, µm.
-    pub offset_um: Vec2,
-    /// Setpoint period, µs.
-    pub period_us: u64,
-    /// Lead from the `Started` event to the first segment, µs.
-    pub lead_us: u64,
-}
-
-impl Schedule {
-    fn total_us(&self) -> u64 {
-        self.steps.iter().map(|s| mesopush_executor::plan::StepGeometry::of(s).duration_us).sum()
-    }
-
-    fn cmd_um(&self, rel_us: u64) -> Vec2 {
-        let (x, y) = path_position_nm(self.steps.iter().copied(), self.start_nm, rel_us);
-        Vec2::new(x as f64 / 1000.0, y as f64 / 1000.0) - self.offset_um
-    }
 }
 
 /// A tracked frame (kept for the verdict and the figure).
@@ -138,8 +118,7 @@ impl Recorder {
         schedule: Schedule,
     ) -> Result<Self, Error> {
         let tracker = Tracker::new(background, track)?;
-        let period = schedule.period_us.max(1);
-        let rows = schedule.total_us().div_ceil(period) + 1;
+        let rows = schedule.rows();
         Ok(Self {
             writer,
             tracker,
@@ -187,7 +166,7 @@ impl Recorder {
         match msg {
             RecMsg::Log(now, e) => self.on_log(now, e),
             RecMsg::Host(_, ExecToHost::Telemetry(t)) if self.t0_us.is_some() => {
-                let pos = Vec2::new(f64::from(t.probe_x_nm), f64::from(t.probe_y_nm)) / 1000.0
+                let pos = Vec2::new(nm_to_um(t.probe_x_nm), nm_to_um(t.probe_y_nm))
                     - self.schedule.offset_um;
                 self.emit_rows_until(t.exec_time_us, Some(pos))
             }
@@ -237,16 +216,15 @@ impl Recorder {
     /// after it count as due); `report` goes on the last of them.
     fn emit_rows_until(&mut self, until_us: u64, report: Option<Vec2>) -> Result<(), Error> {
         let Some(t0) = self.t0_us else { return Ok(()) };
-        let (period, first) = (self.schedule.period_us.max(1), t0 + self.schedule.lead_us);
+        let (period, first) = (self.schedule.period(), t0 + self.schedule.lead_us);
         let horizon = until_us.saturating_add(period / 2);
         if horizon < first || self.rows == 0 {
             return Ok(());
         }
         let last = ((horizon - first) / period).min(self.rows - 1);
-        let total_us = self.schedule.total_us();
         while self.next_row <= last {
             let k = self.next_row;
-            let cmd = self.schedule.cmd_um((k * period).min(total_us));
+            let cmd = self.schedule.row_cmd_um(k);
             let rep = if k == last { report } else { None };
             let row = ProbeRow {
                 t_us: self.rel(first + k * period),
@@ -302,8 +280,8 @@ impl Recorder {
             None => None,
         };
         let st = &stamped.stamp;
-        let probe = Vec2::new(f64::from(st.probe_x_nm), f64::from(st.probe_y_nm)) / 1000.0
-            - self.schedule.offset_um;
+        let probe =
+            Vec2::new(nm_to_um(st.probe_x_nm), nm_to_um(st.probe_y_nm)) - self.schedule.offset_um;
         let t_capture = self.rel(st.frame_stamp_us);
         self.writer.frame(&FrameRow {
             index,
@@ -340,58 +318,9 @@ impl Recorder {
             self.scale_said = true;
             self.event(t_abs, "apparent_scale", mesopush_vision::scale_lock::describe(r))?;
         }
-        let Some(pose) = m.pose else { return Ok(()) };
-        let row = PoseRow {
-            t_us: t_capture,
-            x_um: pose.x_um,
-            y_um: pose.y_um,
-            theta_rad: pose.theta_rad,
-            frame_index: Some(index),
-            residual_px: None,
-            probe_tip_x_um: m.probe_tip_um.map(|t| t.x),
-            probe_tip_y_um: m.probe_tip_um.map(|t| t.y),
-        };
+        let Some(row) = pose_row(t_capture, index, &m) else { return Ok(()) };
         self.writer.pose(&row)?;
         self.out.tracked.push(Tracked { row, t_exposure_us: t_abs, flagged: m.is_flagged() });
         Ok(())
     }
-}
-
-/// PNG bytes of a grayscale frame (fast compression: the recorder must keep up).
-pub fn encode_png(img: &GrayImage) -> Result<Vec<u8>, Error> {
-    use image::ImageEncoder;
-    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
-    let mut bytes = Vec::with_capacity(img.as_raw().len() / 2);
-    PngEncoder::new_with_quality(&mut bytes, CompressionType::Fast, FilterType::Sub)
-        .write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::L8)
-        .map_err(|e| Error::invalid("frame PNG", e.to_string()))?;
-    Ok(bytes)
-}
-
-/// Largest distance between tracked (unflagged) poses and the truth at the same exposure,
-/// µm and rad; `None` without a comparable frame. A frame stamped `t` was exposed at
-/// `t − camera_latency_us` (the world's undeclared latency; 0 in a clean world).
-pub fn track_error(
-    tracked: &[Tracked],
-    truth: &[TruthSample],
-    camera_latency_us: i64,
-) -> Option<(f64, f64, usize)> {
-    let mut worst: Option<(f64, f64, usize)> = None;
-    for t in tracked.iter().filter(|t| !t.flagged) {
-        let exposed = t.t_exposure_us as i64 - camera_latency_us;
-        let Ok(i) = truth.binary_search_by_key(&exposed, |s| s.t_us as i64) else { continue };
-        let s = truth[i].peg;
-        let d = Vec2::new(t.row.x_um - s.x_um, t.row.y_um - s.y_um).norm();
-        let a = wrap_angle(t.row.theta_rad - s.theta_rad).abs();
-        let w = worst.get_or_insert((0.0, 0.0, 0));
-        *w = (w.0.max(d), w.1.max(a), w.2 + 1);
-    }
-    worst
-}
-
-/// An angle folded into (−π, π].
-pub fn wrap_angle(a: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let r = a.rem_euclid(t);
-    if r > std::f64::consts::PI { r - t } else { r }
 }

@@ -1,9 +1,9 @@
-//! One simulated world from a world file, a plan and the seed. The in-process trial
-//! ([`super::trial`]) and the firmware simulator's own process ([`super::fwsim`]) build their
-//! world here, so the same world file and seed give the same peg start, camera timing and
-//! noise in both (seed streams: camera noise `12 + noise_stream`, start perturbation 13).
+//! The plant assembled from a world file, a plan and the seed: the world and how its camera
+//! sees it. The in-process trial (the drive module) and the firmware simulator's own process
+//! (`Fwsim`) assemble their plant here, so the same world file and seed give the
+//! same peg start, camera timing and noise in both (seed streams: camera noise
+//! `12 + noise_stream`, start perturbation 13).
 
-use super::simloop::CameraTiming;
 use super::world::{RigWorld, WorldSetup};
 use super::world_file::WorldFile;
 use crate::Error;
@@ -18,8 +18,19 @@ const PERTURB_STREAM: u64 = 13;
 /// Base of the camera noise streams (`+ noise_stream`).
 const NOISE_STREAM_BASE: u64 = 12;
 
+/// The camera's exposure timing.
+#[derive(Debug, Clone, Copy)]
+pub struct CameraTiming {
+    /// Frame period, µs.
+    pub period_us: u64,
+    /// Readout, µs.
+    pub readout_us: u64,
+    /// First exposure, µs.
+    pub start_us: u64,
+}
+
 /// The world and how it is seen.
-pub(crate) struct Built {
+pub(crate) struct Assembled {
     /// The world, the probe at the plan's start.
     pub world: RigWorld,
     /// The camera's exposure timing.
@@ -47,13 +58,13 @@ pub(crate) fn peg_start(world: &WorldFile, plan: &Plan, over: Option<Pose>, rng:
     Pose::new(nominal.x_um + u(dx), nominal.y_um + u(dy), nominal.theta_rad + u(dth).to_radians())
 }
 
-/// Builds the world of `world` for `plan` under the seed's `rng`.
-pub(crate) fn build(
+/// Assembles the world of `world` for `plan` under the seed's `rng`.
+pub(crate) fn assemble(
     world: &WorldFile,
     plan: &Plan,
     peg_start_over: Option<Pose>,
     rng: &SimRng,
-) -> Result<Built, Error> {
+) -> Result<Assembled, Error> {
     let ws = &world.spec;
     let offset_um = Vec2::new(ws.stage.offset_um[0], ws.stage.offset_um[1]);
     let render = RenderSettings {
@@ -79,5 +90,5 @@ pub(crate) fn build(
     let noise_seed = rng.fork(NOISE_STREAM_BASE + ws.camera.noise_stream).next_u64();
     let noise = rand_chacha::ChaCha8Rng::seed_from_u64(noise_seed);
     let world = RigWorld::new(setup, plan.probe_start(), noise)?;
-    Ok(Built { world, camera, render, offset_um })
+    Ok(Assembled { world, camera, render, offset_um })
 }

@@ -2,7 +2,7 @@
 //! peg pose, probe tip and needle deflection at every exposure, and a `jam` event for every
 //! jam episode of the world (the peg wedged and the needle bent beyond the limit).
 
-use super::world::{NEEDLE_DEFLECTION_LIMIT_UM, TruthSample};
+use super::truth::{NEEDLE_DEFLECTION_LIMIT_UM, TruthSample};
 use crate::Error;
 use mesopush_trial::{EventRow, TrialWriter};
 use std::path::Path;

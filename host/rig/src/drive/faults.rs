@@ -18,6 +18,10 @@
 //! - `host_exec_link`: the same on the two lines between host and executor, detected by
 //!   both ends (the executor's host link and the host session's link), since both are
 //!   ours: link events again, not faults.
+//!
+//! It lives with the loop drivers: the counts are a driven trial's report — the simulated
+//! loop sees both what the plant injected and what the executor and the client detected,
+//! which neither of those modules sees alone.
 
 use serde::{Deserialize, Serialize};
 

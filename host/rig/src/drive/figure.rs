@@ -1,6 +1,10 @@
 //! The trial figure in the style of the paper's Fig. 6: the fixture, the tracked peg outlines
 //! (blue), the host simulator's prediction for the same plan (orange, dotted centre path),
 //! and the tracked centre path.
+//!
+//! It lives with the loop drivers: it draws what a driven trial reports (the tracked poses
+//! of a [`super::spec::TrialReport`]) beside the host simulator's prediction, for
+//! `mesopush demo`. It uses nothing else of the crate.
 
 use crate::Error;
 use mesopush_core::geom::{ConvexPolygon, Pose};

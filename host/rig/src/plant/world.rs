@@ -29,58 +29,24 @@
 //! Each later move re-attempts from the tip's actual position towards the new commanded
 //! position (once the command has moved a simulator step since the failed attempt), so the
 //! tip follows again as soon as the command pulls away. The needle's deflection (commanded
-//! tip − resting tip) is recorded at every exposure; when it exceeds
-//! [`NEEDLE_DEFLECTION_LIMIT_UM`] the world logs a [`JamEvent`] (one per episode: the episode
-//! ends when the deflection falls below half the limit), which the trial records and the
-//! verdict names. The camera renders the tip where it actually is.
+//! tip − resting tip) is recorded at every exposure and its jam episodes logged
+//! ([`super::truth::JamLog`]); the camera renders the tip where it actually is.
+//!
+//! Rendering off the controller's loop (on a renderer thread) is the painter module's; the
+//! world itself knows nothing of threads.
 
 use super::needle::{contact_edge, resting_tip};
-use super::painter::Painter;
+use super::truth::{JamEvent, JamLog, TruthSample};
 use crate::Error;
 use image::GrayImage;
-use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
+use mesopush_core::geom::{ConvexPolygon, Pose, Vec2, point_segment_distance};
 use mesopush_firmware_sim::{PegPose, World};
+use mesopush_protocol::units::nm_to_um;
 use mesopush_sim::advance::{SegmentEnd, advance};
 use mesopush_sim::effects::{Backlash, Effects, stamp_with_latency_us};
 use mesopush_sim::{Fixture, SimSettings, SimState, Simulator};
 use mesopush_vision::{RenderSettings, Renderer, Scene};
-use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-
-/// The world at one camera exposure (ground truth).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TruthSample {
-    /// Exposure time, µs (simulation clock).
-    pub t_us: u64,
-    /// The peg's true pose.
-    pub peg: Pose,
-    /// The probe tip's true position (after backlash, held back by the peg when the peg
-    /// wedged), fixture frame µm.
-    pub probe_um: Vec2,
-    /// The needle's deflection: distance from the commanded tip (the stage after backlash)
-    /// to the actual tip, µm (0 unless the peg wedged).
-    pub deflection_um: f64,
-    /// Jam episodes begun so far (see [`JamEvent`]).
-    pub jams: u32,
-}
-
-/// Needle deflection beyond which the world logs a jam, µm. A 25 µm tungsten tip bends
-/// elastically by a few tip diameters; beyond about 50 µm it would slip over the peg (which
-/// is only half the fixture's depth) or the stage would stall on the force, so the push no
-/// longer does what the plan means. The world (a simulator) cannot model either; it records
-/// the episode so the trial's verdict says why the peg did not go in.
-pub const NEEDLE_DEFLECTION_LIMIT_UM: f64 = 50.0;
-
-/// One jam episode: the needle deflected beyond [`NEEDLE_DEFLECTION_LIMIT_UM`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct JamEvent {
-    /// When the deflection first exceeded the limit, µs (simulation clock).
-    pub t_us: u64,
-    /// Largest deflection during the episode, µm.
-    pub peak_deflection_um: f64,
-    /// The peg's pose when the episode began.
-    pub peg: Pose,
-}
 
 /// A rendered frame.
 #[derive(Debug, Clone)]
@@ -124,15 +90,12 @@ pub struct RigWorld {
     next_exposure_us: u64,
     period_us: u64,
     truth: Vec<TruthSample>,
-    jam_events: Vec<JamEvent>,
-    /// In a jam episode (deflection above the limit, not yet below half of it).
-    in_jam: bool,
+    jams: JamLog,
     /// The commanded tip of the last attempt the peg blocked (re-attempted once the command
     /// has moved a simulator step from it).
     blocked_at: Option<Vec2>,
     /// Commanded tip of the last move (after backlash).
     commanded_um: Vec2,
-    max_deflection_um: f64,
     backlash: Backlash,
     latency_us: f64,
     /// Time and stage position of the last physics advance (for the probe speed).
@@ -148,14 +111,6 @@ const ADVANCE_BUDGET: usize = 100_000;
 /// How far the simulated probe path may cut a corner of the stage's path, µm (the stage
 /// reports positions in whole nm, so a straight move wanders by about that much).
 const CORNER_TOLERANCE_UM: f64 = 0.01;
-
-/// Distance from `p` to the segment `a`–`b`, µm.
-fn distance_to_segment(p: Vec2, a: Vec2, b: Vec2) -> f64 {
-    let ab = b - a;
-    let len2 = ab.dot(&ab);
-    let w = if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
-    (p - (a + ab * w)).norm()
-}
 
 impl RigWorld {
     /// A world with the probe at `probe_start_um` (fixture frame); the renderer's noise from
@@ -181,11 +136,9 @@ impl RigWorld {
             next_exposure_us: setup.camera_start_us,
             period_us: setup.camera_period_us.max(1),
             truth: Vec::new(),
-            jam_events: Vec::new(),
-            in_jam: false,
+            jams: JamLog::default(),
             blocked_at: None,
             commanded_um: probe_start_um,
-            max_deflection_um: 0.0,
             backlash: Backlash::new(setup.effects.backlash_um),
             latency_us: setup.effects.camera_latency_us,
             last_advance: None,
@@ -199,14 +152,15 @@ impl RigWorld {
         &self.truth
     }
 
-    /// Jam episodes so far (needle deflection beyond [`NEEDLE_DEFLECTION_LIMIT_UM`]).
+    /// Jam episodes so far (needle deflection beyond
+    /// [`super::truth::NEEDLE_DEFLECTION_LIMIT_UM`]).
     pub fn jam_events(&self) -> &[JamEvent] {
-        &self.jam_events
+        self.jams.events()
     }
 
     /// Largest needle deflection so far, µm.
     pub fn max_deflection_um(&self) -> f64 {
-        self.max_deflection_um
+        self.jams.max_deflection_um()
     }
 
     /// Where the needle's tip is: resting against the peg (see [`super::needle::resting_tip`]).
@@ -220,15 +174,20 @@ impl RigWorld {
         (self.commanded_um - self.tip_um()).norm()
     }
 
-    /// What a renderer thread needs to draw this world's frames (its own renderer, noise
-    /// stream forked from the world's), so frames can be drawn off the controller's loop.
-    pub fn painter(&mut self) -> Painter {
-        Painter {
-            renderer: self.renderer.clone(),
-            walls: self.sim.fixture().walls.clone(),
-            peg: self.peg_body.clone(),
-            rng: ChaCha8Rng::seed_from_u64(rand::Rng::next_u64(&mut self.rng)),
-        }
+    /// The renderer (true optics; the static part of the picture cached).
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
+    /// The peg's outline in its body frame.
+    pub fn peg_body(&self) -> &ConvexPolygon {
+        &self.peg_body
+    }
+
+    /// The next draw of the world's sensor-noise stream: the seed of a renderer's own
+    /// stream (the painter's, which draws frames off the controller's loop).
+    pub fn next_noise_seed(&mut self) -> u64 {
+        rand::Rng::next_u64(&mut self.rng)
     }
 
     /// The world's state now, stamped `t_us` (what a frame exposed now would show).
@@ -238,7 +197,7 @@ impl RigWorld {
             peg: self.st.peg,
             probe_um: self.tip_um(),
             deflection_um: self.deflection_um(),
-            jams: self.jam_events.len() as u32,
+            jams: self.jams.count(),
         }
     }
 
@@ -263,7 +222,8 @@ impl RigWorld {
     /// The camera driver's stamp of a frame exposed at `exposure_us`: late by the world's
     /// camera latency (never before time 0).
     pub fn driver_stamp_us(&self, exposure_us: u64) -> u64 {
-        stamp_with_latency_us(exposure_us as i64, self.latency_us).max(0) as u64
+        let exposure_us = i64::try_from(exposure_us).unwrap_or(i64::MAX);
+        u64::try_from(stamp_with_latency_us(exposure_us, self.latency_us)).unwrap_or(0)
     }
 
     /// The world's camera latency, µs (rounded; 0 when none).
@@ -273,7 +233,7 @@ impl RigWorld {
 
     /// Stage nm → fixture µm.
     pub fn stage_to_fixture(&self, probe_nm: (i32, i32)) -> Vec2 {
-        Vec2::new(f64::from(probe_nm.0) / 1000.0, f64::from(probe_nm.1) / 1000.0) - self.offset_um
+        Vec2::new(nm_to_um(probe_nm.0), nm_to_um(probe_nm.1)) - self.offset_um
     }
 
     /// Moves the stage to `stage_um` at `t_us`: the tip follows through the backlash and
@@ -284,6 +244,8 @@ impl RigWorld {
         if let Some((t0, p0)) = self.last_advance
             && t_us > t0
         {
+            // µs → s by multiplication, as always: `units::us_to_s` divides, which differs
+            // in the last bit for some times, and the speed-friction physics depends on it.
             let speed = (stage_um - p0).norm() / ((t_us - t0) as f64 * 1e-6);
             self.sim.set_probe_speed_um_s(speed);
         }
@@ -302,7 +264,7 @@ impl RigWorld {
         if self.blocked_at.is_some() || (pending - self.st.probe_um).norm() < 1e-9 {
             return;
         }
-        if distance_to_segment(pending, self.st.probe_um, next_um) > CORNER_TOLERANCE_UM {
+        if point_segment_distance(&pending, &self.st.probe_um, &next_um) > CORNER_TOLERANCE_UM {
             self.move_probe_to(pending);
         }
     }
@@ -339,16 +301,7 @@ impl RigWorld {
     /// Tracks the needle's deflection and the jam episodes.
     fn note_deflection(&mut self, t_us: u64) {
         let d = self.deflection_um();
-        self.max_deflection_um = self.max_deflection_um.max(d);
-        if self.in_jam {
-            if let Some(e) = self.jam_events.last_mut() {
-                e.peak_deflection_um = e.peak_deflection_um.max(d);
-            }
-            self.in_jam = d >= 0.5 * NEEDLE_DEFLECTION_LIMIT_UM;
-        } else if d > NEEDLE_DEFLECTION_LIMIT_UM {
-            self.in_jam = true;
-            self.jam_events.push(JamEvent { t_us, peak_deflection_um: d, peg: self.st.peg });
-        }
+        self.jams.note(t_us, d, self.st.peg);
     }
 }
 
@@ -367,13 +320,8 @@ impl World for RigWorld {
             };
             let pe = p0 + (target - p0) * f;
             self.move_stage_to(te, pe);
-            self.truth.push(TruthSample {
-                t_us: te,
-                peg: self.st.peg,
-                probe_um: self.tip_um(),
-                deflection_um: self.deflection_um(),
-                jams: self.jam_events.len() as u32,
-            });
+            let sample = self.truth_now(te);
+            self.truth.push(sample);
             self.next_exposure_us += self.period_us;
         }
         // The backlash sees every stage position (a reversal inside a chord counts).

@@ -1,10 +1,10 @@
 //! The simulator process's renderer side: the renderer thread ([`render_frames`], drawing
-//! what [`crate::painter::Deferred`] handed back) and the camera socket's writer
+//! what [`crate::plant::painter::Deferred`] handed back) and the camera socket's writer
 //! ([`serve_camera`]).
 
 use crate::Error;
-use crate::painter::Painter;
-use crate::world::TruthSample;
+use crate::plant::painter::Painter;
+use crate::plant::truth::TruthSample;
 use crossbeam_channel::{Receiver, Sender};
 use mesopush_protocol::camera::CameraFrameHeader;
 use std::fs::File;

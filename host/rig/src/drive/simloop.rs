@@ -4,28 +4,22 @@
 //! stamps → recorder. Every line passes a seeded [`SimLine`] that injects the world file's
 //! faults on the way; one seed drives everything, so the same seed gives the same run.
 
+use super::endpoint::{InProcessEndpoint, endpoint};
 use super::faults::{FaultClasses, FaultCount};
 use super::pty::PtyLine;
 use super::recorder::RecMsg;
-use super::session::HostSession;
-use super::world::RigWorld;
 use crate::Error;
+use crate::client::session::HostSession;
+use crate::plant::assemble::CameraTiming;
+use crate::plant::controller::{Controller, applied_segments, controller};
+use crate::plant::world::RigWorld;
 use crossbeam_channel::Sender;
-use mesopush_executor::endpoint::Endpoint;
-use mesopush_executor::{CameraFrame, Executor, ExecutorConfig, LogEvent, MemStore};
+use mesopush_executor::{CameraFrame, ExecutorConfig, LogEvent};
 use mesopush_firmware_sim::camera::SimCamera;
 use mesopush_firmware_sim::line::SimLine;
-use mesopush_firmware_sim::{ControllerNode, CtrlEvent, FaultConfig, NodeEvent, SimRng, World};
-use mesopush_protocol::{FRAME_BUF_LEN, LinkConfig, LinkStats};
+use mesopush_firmware_sim::{CtrlEvent, FaultConfig, NodeEvent, SimRng, World};
+use mesopush_protocol::{FRAME_BUF_LEN, LinkStats};
 
-/// Plan memory of the executor: 4096 steps.
-pub const CAP: usize = 12 * 4096;
-/// Look-ahead queue.
-pub const LA: usize = 32;
-/// Link window of the executor's lines.
-pub const EW: usize = 48;
-/// Controller queue slots.
-pub const Q: usize = 32;
 /// Simulation step, µs.
 pub const STEP_US: u64 = 100;
 
@@ -35,9 +29,9 @@ pub struct SimLoop {
     /// Simulated time, µs (also the executor's clock).
     pub now_us: u64,
     /// The executor.
-    pub exec: Endpoint<MemStore<CAP>, CAP, LA, EW>,
+    pub exec: InProcessEndpoint,
     /// The controller.
-    pub node: ControllerNode<Q, EW>,
+    pub node: Controller,
     /// The controller's line.
     pub pty: PtyLine,
     /// Simulated lines: exec→ctrl, ctrl→exec, host→exec, exec→host.
@@ -62,42 +56,22 @@ pub struct SimLoop {
 /// Records handed to the recorder in one batch at most (also flushed at every frame).
 const BATCH_RECORDS: usize = 512;
 
-/// Camera timing.
-#[derive(Debug, Clone, Copy)]
-pub struct CameraTiming {
-    /// Frame period, µs.
-    pub period_us: u64,
-    /// Readout, µs.
-    pub readout_us: u64,
-    /// First exposure, µs.
-    pub start_us: u64,
-}
-
 impl SimLoop {
-    /// Builds the loop; `probe_start_nm` is the stage's start.
+    /// Builds the loop; `probe_start_nm` is the stage's start, stage nm.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         rng: &SimRng,
         config: ExecutorConfig,
         faults: FaultConfig,
-        probe_start_nm: (f64, f64),
+        probe_start_nm: (i32, i32),
         host: HostSession,
         world: RigWorld,
         camera: CameraTiming,
         tx: Sender<RecMsg>,
     ) -> Result<Self, Error> {
-        let link = LinkConfig::DEFAULT;
-        let core = Executor::new(config, MemStore::new())
-            .map_err(|e| Error::invalid("executor config", format!("{e:?}")))?;
         let session = 1 + rng.fork(10).below(1000) as u16;
-        let node = ControllerNode::new(
-            mesopush_firmware_sim::CtrlConfig::DEFAULT,
-            faults,
-            link,
-            rng.fork(1),
-            0,
-            probe_start_nm,
-        );
+        let exec = endpoint(config, session)?;
+        let node = controller(faults, rng.fork(1), 0, probe_start_nm);
         let cam = SimCamera::new(
             camera.period_us,
             camera.readout_us,
@@ -107,7 +81,7 @@ impl SimLoop {
         );
         Ok(Self {
             now_us: 0,
-            exec: Endpoint::new(core, link, session),
+            exec,
             node,
             pty: PtyLine::open()?,
             lines: [2, 3, 4, 5].map(|s| SimLine::new(rng.fork(s), faults)),
@@ -258,7 +232,7 @@ impl SimLoop {
     /// Faults by class: injected ones (every line, the stage, the camera), and the
     /// detections the loop can see — the executor's controller-link counters and the camera
     /// faults it reported while stamping frames. The controller's detections (trial faults)
-    /// are the recorder's; [`super::trial`] adds them.
+    /// are the recorder's; the trial adds them.
     pub fn fault_classes(&self) -> FaultClasses {
         let line = |l: &SimLine| {
             let s = l.stats();
@@ -294,17 +268,4 @@ impl SimLoop {
             },
         }
     }
-}
-
-/// Segments a controller node applied, and whether their ids ran consecutively.
-pub fn applied_segments(events: &[(u64, NodeEvent)]) -> (u64, bool) {
-    let ids: Vec<u32> = events
-        .iter()
-        .filter_map(|(_, e)| match e {
-            NodeEvent::Ctrl(mesopush_firmware_sim::CtrlEvent::Applied(id)) => Some(*id),
-            _ => None,
-        })
-        .collect();
-    let in_order = ids.windows(2).all(|w| w[1] == w[0].wrapping_add(1));
-    (ids.len() as u64, in_order)
 }

@@ -9,6 +9,7 @@ use super::hostlink::{HostPort, drive, fresh_session_id};
 use super::session::{HostSession, SessionEnd, SessionGoal, plan_steps};
 use crate::Error;
 use mesopush_core::geom::Vec2;
+use mesopush_core::stats::percentile_i64;
 use mesopush_protocol::host::{ExecToHost, ProbeTelemetry, TrialEvent, TrialEventKind};
 use mesopush_sim::Plan;
 use mesopush_trial::{FrameRow, PoseRow, TrialState};
@@ -68,7 +69,8 @@ pub struct RunOptions {
 pub struct TruthFigures {
     /// Frames matched with the truth by their counter.
     pub frames_compared: usize,
-    /// Executor stamp − true exposure, µs: median, and largest magnitude.
+    /// Executor stamp − true exposure, µs: median (0 with no frame compared), and largest
+    /// magnitude.
     pub stamp_error_us_p50: i64,
     /// Largest |stamp − exposure|, µs.
     pub stamp_error_us_max_abs: i64,
@@ -237,11 +239,6 @@ fn copy_dir(from: &Path, out: &Path) -> Result<PathBuf, Error> {
     Ok(out.to_path_buf())
 }
 
-fn percentile(v: &mut [i64], q: f64) -> i64 {
-    v.sort_unstable();
-    v.get(((v.len() as f64 - 1.0) * q).round() as usize).copied().unwrap_or(0)
-}
-
 /// Frame stamps and tracked poses of the trial in `dir` against `fwsim-truth.csv`.
 pub fn truth_figures(dir: &Path, truth_path: &Path) -> Result<TruthFigures, Error> {
     let rec_path = dir.join("recording.json");
@@ -269,9 +266,9 @@ pub fn truth_figures(dir: &Path, truth_path: &Path) -> Result<TruthFigures, Erro
     let max_abs = stamp.iter().map(|e| e.abs()).max().unwrap_or(0);
     Ok(TruthFigures {
         frames_compared: n,
-        stamp_error_us_p50: percentile(&mut stamp, 0.5),
+        stamp_error_us_p50: percentile_i64(&mut stamp, 0.5).unwrap_or(0),
         stamp_error_us_max_abs: max_abs,
-        arrival_latency_us_p50: percentile(&mut arrival, 0.5),
+        arrival_latency_us_p50: percentile_i64(&mut arrival, 0.5).unwrap_or(0),
         arrival_latency_us_max: arrival.iter().copied().max().unwrap_or(0),
         track_error_um_max: track,
     })
