@@ -18,7 +18,12 @@ const TABLE2_TOML: &str = include_str!("../../../../../plans/table2.toml");
 /// Serve the simulated motion controller (pseudo-terminal) and camera (Unix socket) in real
 /// time for `mesopush-executor`.
 #[derive(Debug, Parser)]
-#[command(name = "mesopush-fwsim", version, about)]
+#[command(
+    name = "mesopush-fwsim",
+    version,
+    about = "The firmware simulator as its own process: the simulated motion controller on a \
+             pseudo-terminal, the 30 Hz camera on a Unix socket, the stage and the world they share"
+)]
 struct Args {
     /// World file (default: worlds/default.toml, embedded).
     #[arg(long)]
