@@ -28,6 +28,7 @@ use super::candidates::{Candidate, NOMINAL};
 use super::data::TrialData;
 use super::fit::{loss, residual_vector};
 use super::starts::StartContext;
+use mesopush_ident::optim::{LmSettings, levenberg_marquardt};
 use rayon::prelude::*;
 
 /// Spacing of the edge positions scanned, µm: well inside the loss's basin about a true
@@ -240,9 +241,9 @@ fn refine_edge(
     let x0: Vec<f64> =
         nom[..k].iter().copied().chain([hp.mu, hp.lo[axis] - nom[2 + axis]]).collect();
     let budget = 3 * ctx.evals_per_trial.max(2 * (k + 6));
-    let (x, l, _, _) = mesopush_ident::polish::levenberg_marquardt(&res, &x0, &h, budget);
-    let x = clamp(&x);
-    (x[..k].to_vec(), rect(&x), l)
+    let m = levenberg_marquardt(&res, &x0, &h, budget, &LmSettings::DEFAULT);
+    let x = clamp(&m.x);
+    (x[..k].to_vec(), rect(&x), m.value)
 }
 
 /// The rectangle grown from `r` one side at a time (the sides still at a bound, in turn):
