@@ -1,13 +1,13 @@
-//! A compact fitter: weighted least squares of the measured-minus-predicted residual over a
-//! set of trials, minimised over a candidate's parameter vector by trying its start grid
-//! and then a bounded Nelder–Mead simplex and Levenberg–Marquardt (both from
-//! [`mesopush_ident::optim`]). Generic over the parameter vector; deterministic (no randomness,
-//! a fixed evaluation budget).
+//! A compact fitter: the noise-weighted least squares of [`super::objective`] minimised over
+//! a candidate's parameter vector by trying its start grid, then a bounded Nelder–Mead simplex
+//! and Levenberg–Marquardt on the residual vector (both from [`mesopush_ident::optim`]).
+//! Generic over the parameter vector; deterministic (no randomness, a fixed evaluation
+//! budget).
 
-use super::candidates::{Candidate, Param};
+use super::candidates::{Effect, NOMINAL, Param};
 use super::data::TrialData;
-use super::predict::predict;
-use super::residual::{Noise, Residual};
+use super::objective::{FAILED, loss, residual_vector};
+use super::residual::Noise;
 use mesopush_ident::optim::{Centroid, LmSettings, NelderMeadSettings, Stop};
 use mesopush_ident::optim::{axis_simplex, levenberg_marquardt, nelder_mead};
 use mesopush_sim::{Model, SimSettings};
@@ -22,62 +22,13 @@ pub const SIMPLEX: NelderMeadSettings = NelderMeadSettings {
     ..NelderMeadSettings::DEFAULT
 };
 
-/// Loss of a parameter set that cannot be simulated (kept finite so the simplex moves away).
-const FAILED: f64 = 1e12;
-
-/// The weighted sum of squared residuals of `model` over `trials` (each channel divided by
-/// its noise variance) and the number of scalar residuals in it.
-pub fn loss(
-    trials: &[TrialData],
-    model: &Model,
-    settings: &SimSettings,
-    noise: &Noise,
-) -> (f64, usize) {
-    if model.validate().is_err() {
-        return (FAILED, 1);
-    }
-    let mut sum = 0.0;
-    let mut n = 0;
-    for t in trials {
-        match predict(t, model, settings) {
-            Ok(pred) => {
-                let r = Residual::new(t, &pred);
-                let (s, k) = r.weighted_sse(noise);
-                sum += s;
-                n += k;
-            }
-            Err(_) => return (FAILED, 1),
-        }
-    }
-    (sum, n.max(1))
-}
-
-/// Every weighted residual scalar of `model` over `trials` (see
-/// [`Residual::weighted_into`]); `None` when it cannot be simulated.
-pub fn residual_vector(
-    trials: &[TrialData],
-    model: &Model,
-    settings: &SimSettings,
-    noise: &Noise,
-) -> Option<Vec<f64>> {
-    if model.validate().is_err() {
-        return None;
-    }
-    let mut out = Vec::new();
-    for t in trials {
-        let pred = predict(t, model, settings).ok()?;
-        Residual::new(t, &pred).weighted_into(noise, &mut out);
-    }
-    Some(out)
-}
-
 /// Levenberg–Marquardt on the nominal parameters only (the effect's held at its value in
 /// `v`, a full parameter vector of `candidate`), at most about `budget` evaluations: where
 /// the nominal parameters go once the effect is on. The nominal fit has bent them to absorb
 /// the missing effect's signature (the support's place is the most sensitive), so an effect
 /// tried at the nominal optimum can look worse than none although it is there.
 pub fn refit_nominal(
-    candidate: Candidate,
+    candidate: Effect,
     base: &Model,
     trials: &[TrialData],
     settings: &SimSettings,
@@ -86,7 +37,7 @@ pub fn refit_nominal(
     budget: usize,
 ) -> (Vec<f64>, f64) {
     let params = candidate.params();
-    let k = super::candidates::NOMINAL.len();
+    let k = NOMINAL.len();
     let full = |x: &[f64]| -> Vec<f64> { x.iter().chain(&v[k..]).copied().collect() };
     let res = |x: &[f64]| -> Option<Vec<f64>> {
         residual_vector(trials, &candidate.apply(base, &clamp(&params, &full(x))), settings, noise)
@@ -100,7 +51,7 @@ pub fn refit_nominal(
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fit {
     /// Which candidate.
-    pub candidate: Candidate,
+    pub candidate: Effect,
     /// Fitted parameter vector (nominal ones first).
     pub values: Vec<f64>,
     /// The fitted model.
@@ -120,7 +71,7 @@ fn clamp(params: &[Param], v: &[f64]) -> Vec<f64> {
 /// Fits `candidate` on `trials`, trying each of `starts` (full parameter vectors) and running
 /// the simplex from the best, with at most `max_evals` evaluations in all.
 pub fn fit(
-    candidate: Candidate,
+    candidate: Effect,
     base: &Model,
     trials: &[TrialData],
     settings: &SimSettings,
@@ -134,7 +85,7 @@ pub fn fit(
 /// [`fit`] over the models `admissible` accepts (the others score as unsimulable).
 #[allow(clippy::too_many_arguments)]
 pub fn fit_where(
-    candidate: Candidate,
+    candidate: Effect,
     base: &Model,
     trials: &[TrialData],
     settings: &SimSettings,
@@ -179,11 +130,11 @@ pub fn fit_where(
     Fit { candidate, values, model, loss, n, evals }
 }
 
-/// Levenberg–Marquardt ([`mesopush_ident::optim::lm`]) on the noise-weighted residual vector from
-/// `from` (point and loss); returns the better of the two points.
+/// Levenberg–Marquardt ([`mesopush_ident::optim::lm`]) on the noise-weighted residual vector
+/// from `from` (point and loss); returns the better of the two points.
 #[allow(clippy::too_many_arguments)]
 fn polish(
-    candidate: Candidate,
+    candidate: Effect,
     base: &Model,
     trials: &[TrialData],
     settings: &SimSettings,

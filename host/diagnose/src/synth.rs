@@ -9,7 +9,7 @@
 //! Frames at 30 Hz: the peg pose and tip at the exposure, through the scale error, stamped
 //! late by the latency, with tracker-like noise (0.3 µm, 0.04°; tip 0.5 µm).
 
-use super::candidates::Candidate;
+use super::candidates::Effect;
 use super::data::{Measured, TrialData, open_plate};
 use super::predict::predict_open_loop;
 use crate::Error;
@@ -51,29 +51,27 @@ fn normal(rng: &mut impl Rng) -> f64 {
 }
 
 /// One library effect at a realistic size (the ranges), drawn from `rng`.
-pub fn realistic_effect(c: Candidate, rng: &mut impl Rng) -> Effects {
+pub fn realistic_effect(c: Effect, rng: &mut impl Rng) -> Effects {
     let sign = |rng: &mut dyn FnMut() -> bool| if rng() { 1.0 } else { -1.0 };
     let mut coin = || rng.random_bool(0.5);
     let s = [sign(&mut coin), sign(&mut coin)];
     let mut e = Effects::default();
     match c {
-        Candidate::Nominal => {}
-        Candidate::Backlash => {
+        Effect::Nominal => {}
+        Effect::Backlash => {
             e.backlash_um = [rng.random_range(5.0..20.0), rng.random_range(5.0..20.0)]
         }
-        Candidate::Latency => e.camera_latency_us = rng.random_range(30e3..100e3),
-        Candidate::Scale => {
+        Effect::Latency => e.camera_latency_us = rng.random_range(30e3..100e3),
+        Effect::Scale => {
             e.scale_error =
                 [s[0] * rng.random_range(0.01..0.03), s[1] * rng.random_range(0.01..0.03)]
         }
-        Candidate::Compliance => {
-            e.probe_compliance_um_per_weight = Some(rng.random_range(20.0..60.0))
-        }
-        Candidate::Adhesion => {
+        Effect::Compliance => e.probe_compliance_um_per_weight = Some(rng.random_range(20.0..60.0)),
+        Effect::Adhesion => {
             e.adhesion =
                 Some(Adhesion { pull_off_weight: rng.random_range(0.3..0.6), range_um: 2.0 })
         }
-        Candidate::FrictionPatch => {
+        Effect::FrictionPatch => {
             // A patch over the right or the lower part of the workspace.
             let (min_um, max_um) = if rng.random_bool(0.5) {
                 ([rng.random_range(1600.0..1900.0), -1e4], [1e4, 1e4])
@@ -83,10 +81,10 @@ pub fn realistic_effect(c: Candidate, rng: &mut impl Rng) -> Effects {
             e.friction_patch =
                 Some(FrictionPatch { min_um, max_um, mu_surface: rng.random_range(0.6..0.9) })
         }
-        Candidate::SpeedFriction => {
+        Effect::SpeedFriction => {
             e.speed_friction = Some(SpeedFriction { gain_per_mm_s: rng.random_range(1.5..3.0) })
         }
-        Candidate::SupportDrift => {
+        Effect::SupportDrift => {
             e.support_drift = Some(SupportDrift {
                 // Along the peg's long axis, so a 6-trial batch keeps every support inside
                 // the part (the nominal points sit within ~50 µm of its long edges).
@@ -270,7 +268,7 @@ pub fn write_trial(
 /// The true model of an `n_trials` batch with one library effect at a realistic size: a
 /// drawn support drift is halved until the support stays physical (inside the part, holding
 /// its weight) over the whole batch, as a real one must.
-pub fn batch_truth(effect: Candidate, n_trials: usize, rng: &mut impl Rng) -> Model {
+pub fn batch_truth(effect: Effect, n_trials: usize, rng: &mut impl Rng) -> Model {
     let mut truth = true_nominal(rng);
     truth.effects = realistic_effect(effect, rng);
     let last = n_trials.saturating_sub(1);
@@ -308,7 +306,7 @@ mod tests {
     fn a_drawn_support_drift_stays_physical_over_the_batch() {
         for seed in 0..200 {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-            let truth = batch_truth(Candidate::SupportDrift, 6, &mut rng);
+            let truth = batch_truth(Effect::SupportDrift, 6, &mut rng);
             assert!(truth.effects.support_drift.is_some(), "seed {seed}");
             assert!(super::super::predict::valid_over_batch(&truth, 5), "seed {seed}: {truth:?}");
         }

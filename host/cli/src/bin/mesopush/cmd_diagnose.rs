@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_diagnose::report;
 use mesopush_diagnose::rig_batch::write_rig_batch;
 use mesopush_diagnose::synth::{SynthNoise, batch_truth, write_trial};
-use mesopush_diagnose::{Candidate, Diagnosis, Options, TrialData, diagnose};
+use mesopush_diagnose::{Diagnosis, Effect, Options, TrialData, diagnose};
 use rand::SeedableRng;
 use std::path::{Path, PathBuf};
 
@@ -59,19 +59,19 @@ pub(crate) struct DiagnoseArgs {
     pub(crate) seed: u64,
 }
 
-pub(crate) fn candidate(name: &str) -> Result<Candidate> {
+pub(crate) fn candidate(name: &str) -> Result<Effect> {
     if name == "none" {
-        return Ok(Candidate::Nominal);
+        return Ok(Effect::Nominal);
     }
-    Candidate::EFFECTS.into_iter().find(|c| c.name() == name).with_context(|| {
-        let names: Vec<_> = Candidate::EFFECTS.iter().map(|c| c.name()).collect();
+    Effect::EFFECTS.into_iter().find(|c| c.name() == name).with_context(|| {
+        let names: Vec<_> = Effect::EFFECTS.iter().map(|c| c.name()).collect();
         format!("unknown effect {name:?}; the library has none, {}", names.join(", "))
     })
 }
 
 fn synth_batch(
     out: &Path,
-    effect: Candidate,
+    effect: Effect,
     n: usize,
     strokes: usize,
     seed: u64,
@@ -162,7 +162,7 @@ pub(crate) fn run(args: &DiagnoseArgs) -> Result<()> {
 pub(crate) fn blind(
     args: &DiagnoseArgs,
     opts: &Options,
-    effect: Candidate,
+    effect: Effect,
     seed: u64,
 ) -> Result<Diagnosis> {
     let dir = args.out.join(format!("{}-{seed}", effect.name()));

@@ -6,11 +6,11 @@ use super::cmd_diagnose::{DiagnoseArgs, blind, candidate};
 use anyhow::Result;
 use indicatif::ProgressBar;
 use mesopush_diagnose::report::mse_before_after;
-use mesopush_diagnose::{Candidate, Options, Verdict};
+use mesopush_diagnose::{Effect, Options, Verdict};
 
 pub(crate) fn run(args: &DiagnoseArgs, opts: &Options, seeds: usize) -> Result<()> {
-    let truths: Vec<Candidate> = if args.only.is_empty() {
-        std::iter::once(Candidate::Nominal).chain(Candidate::EFFECTS).collect()
+    let truths: Vec<Effect> = if args.only.is_empty() {
+        std::iter::once(Effect::Nominal).chain(Effect::EFFECTS).collect()
     } else {
         args.only.iter().map(|n| candidate(n)).collect::<Result<_>>()?
     };
@@ -56,7 +56,7 @@ pub(crate) fn run(args: &DiagnoseArgs, opts: &Options, seeds: usize) -> Result<(
     }
     pb.finish_and_clear();
     eprintln!("{} batches in {:.0} s", rows.len(), started.elapsed().as_secs_f64());
-    let cols: Vec<String> = Candidate::EFFECTS
+    let cols: Vec<String> = Effect::EFFECTS
         .iter()
         .map(|c| c.name().to_string())
         .chain(["unexplained".into(), "none".into()])
@@ -64,7 +64,7 @@ pub(crate) fn run(args: &DiagnoseArgs, opts: &Options, seeds: usize) -> Result<(
     println!("| true \\ verdict | {} |", cols.join(" | "));
     println!("|---|{}", "---|".repeat(cols.len()));
     for &t in &truths {
-        let name = if t == Candidate::Nominal { "clean" } else { t.name() };
+        let name = if t == Effect::Nominal { "clean" } else { t.name() };
         let counts: Vec<String> = cols
             .iter()
             .map(|c| rows.iter().filter(|r| r.0 == t && &r.2 == c).count().to_string())
@@ -76,7 +76,7 @@ pub(crate) fn run(args: &DiagnoseArgs, opts: &Options, seeds: usize) -> Result<(
     );
     println!("|---|---|---|---|---|---|---|");
     for (t, seed, called, b, a) in &rows {
-        let name = if *t == Candidate::Nominal { "clean" } else { t.name() };
+        let name = if *t == Effect::Nominal { "clean" } else { t.name() };
         println!(
             "| {name} | {seed} | {called} | {:.2} | {:.2} | {:.2e} | {:.2e} |",
             b.xy_um2, a.xy_um2, b.theta_rad2, a.theta_rad2
