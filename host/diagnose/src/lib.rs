@@ -10,8 +10,8 @@
 //! minimise ([`objective`]) and the fitter ([`fit`], on the minimisers of
 //! [`mesopush_ident::optim`]); where each search starts ([`starts`]); the verdict
 //! ([`decide`], [`adequacy`]) and the whole diagnosis ([`attribute`], [`options`]); its report
-//! ([`report`]). Batches to test it on: [`synth`] (synthetic, one undeclared effect) and
-//! [`rig_batch`] (through the whole simulated loop).
+//! ([`report`]). Batches to test it on: [`synth`] (synthetic, one undeclared effect),
+//! [`rig_batch`] (through the whole simulated loop) and the experiment over both, [`confusion`].
 //!
 //! May depend on: `mesopush-core`, `mesopush-sim`, `mesopush-trial`, `mesopush-ident` and
 //! `mesopush-rig`. Never on planning, batches or the command line.
@@ -19,6 +19,7 @@
 pub mod adequacy;
 pub mod attribute;
 pub mod candidates;
+pub mod confusion;
 pub mod data;
 pub mod decide;
 pub mod error;

@@ -11,15 +11,16 @@
 
 use super::candidates::Effect;
 use super::data::{Measured, TrialData, open_plate};
-use super::predict::predict_open_loop;
+use super::predict::{Prediction, predict_open_loop};
 use crate::Error;
 use mesopush_core::geom::{Pose, Vec2};
+use mesopush_protocol::units;
 use mesopush_sim::effects::{Adhesion, Effects, FrictionPatch, SpeedFriction, SupportDrift};
 use mesopush_sim::{Model, ProbePoint, SimSettings, Simulator, follow_path};
 use mesopush_trial::{Outcome, TrialMeta, TrialState, TrialWriter};
 use rand::{Rng, RngExt};
 use serde::Serialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Setpoint period, s (100 Hz).
 const CMD_DT_S: f64 = 0.01;
@@ -195,6 +196,14 @@ struct PoseCsvRow {
     probe_tip_y_um: f64,
 }
 
+/// The last setpoint's time `t_s` in whole µs, truncated toward zero (the frames are those
+/// stamped at or before it). [`units::s_to_us_i64`] rounds half away from zero; for t ≥ 0
+/// truncation is one less exactly when that rounded up.
+fn end_us(t_s: f64) -> Result<i64, Error> {
+    let rounded = units::s_to_us_i64("last setpoint t_s", t_s)?;
+    Ok(if rounded as f64 > t_s * 1e6 { rounded - 1 } else { rounded })
+}
+
 /// Generates one trial into `dir` from the true model `truth` (effects included).
 pub fn write_trial(
     dir: &Path,
@@ -211,9 +220,11 @@ pub fn write_trial(
     nominal.effects = Effects::default();
     let (start, cmd) = open_plate_path(&nominal, strokes, &mut rng)?;
     let fx = &truth.effects;
-    let end_us = (cmd.last().map_or(0.0, |p| p.t_s) * 1e6) as i64;
+    let end_us = end_us(cmd.last().map_or(0.0, |p| p.t_s))?;
     let first = mesopush_sim::effects::scale_pose(&start, fx.scale_error, fx.scale_origin_um);
     let stamps: Vec<i64> = (0..).map(|k| k * FRAME_US).take_while(|t| *t <= end_us).collect();
+    // × 1e-6, not `units::us_i64_to_s` (÷ 1e6): the two differ in the last bit for about a
+    // third of the stamps, and the predicted poses written below were made with this one.
     let frames = stamps
         .iter()
         .map(|t| Measured { t_s: *t as f64 * 1e-6, pose: first, tip_um: None })
@@ -230,14 +241,14 @@ pub fn write_trial(
     let pred = predict_open_loop(&data, truth, &SimSettings::default())?;
     let mut meta = TrialMeta::new(id, "mesopush-synth", truth.part.clone());
     meta.probe_radius_um = truth.probe_radius_um;
-    meta.frame_period_us = Some(FRAME_US as u64);
+    meta.frame_period_us = Some(FRAME_US.unsigned_abs());
     meta.seeds.insert("synth".into(), seed);
     meta.world =
         Some(serde_json::to_value(truth).map_err(|e| Error::invalid("synth", e.to_string()))?);
     let mut w = TrialWriter::create(dir, meta)?;
     for p in &cmd {
         w.probe(&mesopush_trial::ProbeRow {
-            t_us: (p.t_s * 1e6).round() as i64,
+            t_us: units::s_to_us_i64("probe t_s", p.t_s)?,
             cmd_x_um: p.probe_um.x,
             cmd_y_um: p.probe_um.y,
             rep_x_um: None,
@@ -245,24 +256,58 @@ pub fn write_trial(
         })?;
     }
     let dir = w.finish(Outcome { state: TrialState::Done, reason: None, inserted: None })?;
-    let path = dir.join(mesopush_trial::files::POSE);
-    let mut csv = csv::Writer::from_path(&path)
-        .map_err(|e| Error::Parse { path: path.clone(), message: e.to_string() })?;
+    write_poses(&dir.join(mesopush_trial::files::POSE), &stamps, &pred, noise, &mut rng)
+}
+
+/// Writes pose.csv: the predicted pose and imaged tip at each stamp (µs) with tracker-like
+/// noise drawn from `rng`.
+fn write_poses(
+    path: &Path,
+    stamps: &[i64],
+    pred: &Prediction,
+    noise: &SynthNoise,
+    rng: &mut impl Rng,
+) -> Result<(), Error> {
+    let mut csv = csv::Writer::from_path(path).map_err(|e| Error::parse(path, e))?;
     for (k, t) in stamps.iter().enumerate() {
         let (p, tip) = (pred.poses[k], pred.tips_um[k]);
         csv.serialize(PoseCsvRow {
             t_us: *t,
-            x_um: p.x_um + noise.xy_um * normal(&mut rng),
-            y_um: p.y_um + noise.xy_um * normal(&mut rng),
-            theta_rad: p.theta_rad + noise.theta_rad * normal(&mut rng),
+            x_um: p.x_um + noise.xy_um * normal(rng),
+            y_um: p.y_um + noise.xy_um * normal(rng),
+            theta_rad: p.theta_rad + noise.theta_rad * normal(rng),
             frame_index: k as u64,
             residual_px: None,
-            probe_tip_x_um: tip.x + noise.tip_um * normal(&mut rng),
-            probe_tip_y_um: tip.y + noise.tip_um * normal(&mut rng),
+            probe_tip_x_um: tip.x + noise.tip_um * normal(rng),
+            probe_tip_y_um: tip.y + noise.tip_um * normal(rng),
         })
-        .map_err(|e| Error::Parse { path: path.clone(), message: e.to_string() })?;
+        .map_err(|e| Error::parse(path, e))?;
     }
-    csv.flush().map_err(|e| Error::io(&path, e))
+    csv.flush().map_err(|e| Error::io(path, e))
+}
+
+/// Writes a synthetic batch of `n_trials` trials with one undeclared `effect` (or none) into
+/// `out/trial-NNN`: the true model drawn from `seed` ([`batch_truth`]), trial `i`'s strokes
+/// and noise from `seed · 1000 + i`, [`SynthNoise::default`]. Returns the trial directories.
+pub fn write_batch(
+    out: &Path,
+    effect: Effect,
+    n_trials: usize,
+    strokes: usize,
+    seed: u64,
+) -> Result<Vec<PathBuf>, Error> {
+    use rand::SeedableRng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let truth = batch_truth(effect, n_trials, &mut rng);
+    (0..n_trials)
+        .map(|i| {
+            let id = format!("trial-{i:03}");
+            let dir = out.join(&id);
+            let noise = SynthNoise::default();
+            write_trial(&dir, &id, i, &truth, strokes, &noise, seed * 1000 + i as u64)?;
+            Ok(dir)
+        })
+        .collect()
 }
 
 /// The true model of an `n_trials` batch with one library effect at a realistic size: a
