@@ -1,6 +1,6 @@
 //! The identification sweep split into shards by candidate index and merged
-//! (`identify --shard I/N`, then `--sweep-from`): the same report and model as one process,
-//! and a bad shard set refused with the problem named.
+//! (`identify shard I/N`, then `identify merge --sweep-from`): the same report and model as
+//! one process, and a bad shard set refused with the problem named.
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -16,9 +16,12 @@ fn ok(o: Output) -> serde_json::Value {
     serde_json::from_slice(&o.stdout).unwrap()
 }
 
-/// A small sweep over the synthetic trials, with extra arguments.
-fn identify(dir: &Path, extra: &[&str]) -> Output {
-    let mut a = vec!["identify", "trials", "--mu-step", "0.25", "--supports", "5", "--seed", SEED];
+/// A small sweep over the synthetic trials in `mode` (`run`, `merge`, `shard I/N`), with
+/// extra arguments.
+fn identify(dir: &Path, mode: &[&str], extra: &[&str]) -> Output {
+    let mut a = vec!["identify"];
+    a.extend_from_slice(mode);
+    a.extend_from_slice(&["trials", "--mu-step", "0.25", "--supports", "5", "--seed", SEED]);
     a.extend_from_slice(extra);
     a.push("--json");
     mesopush(&a, dir)
@@ -28,17 +31,18 @@ fn identify(dir: &Path, extra: &[&str]) -> Output {
 fn sharded_sweep_merges_to_the_one_process_report_and_bad_sets_are_refused() {
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
-    ok(mesopush(&["identify", "--synthesize", "trials", "--seed", SEED, "--json"], d));
-    let whole = ok(identify(d, &["--out", "whole.toml", "--consistent-out", "whole-s.toml"]));
+    ok(mesopush(&["identify", "synth", "trials", "--seed", SEED, "--json"], d));
+    let whole =
+        ok(identify(d, &["run"], &["--out", "whole.toml", "--consistent-out", "whole-s.toml"]));
     for i in 0..3 {
         let (shard, out) = (format!("{i}/3"), format!("shard{i}.json"));
-        let v = ok(identify(d, &["--shard", &shard, "--sweep-out", &out]));
+        let v = ok(identify(d, &["shard", &shard], &["--sweep-out", &out]));
         assert_eq!(v["shard"], shard.as_str(), "{v}");
     }
     let from = ["--sweep-from", "shard2.json", "shard0.json", "shard1.json"];
     let mut args = vec!["--out", "merged.toml", "--consistent-out", "merged-s.toml"];
     args.extend_from_slice(&from);
-    let merged = ok(identify(d, &args));
+    let merged = ok(identify(d, &["merge"], &args));
     assert_eq!(merged["report"], whole["report"], "seed {SEED}: merged sweep's report differs");
     let read = |f: &str| std::fs::read_to_string(d.join(f)).unwrap();
     assert_eq!(read("merged.toml"), read("whole.toml"), "seed {SEED}: model differs");
@@ -48,12 +52,13 @@ fn sharded_sweep_merges_to_the_one_process_report_and_bad_sets_are_refused() {
         assert!(!o.status.success(), "seed {SEED}: a bad shard set was accepted");
         String::from_utf8_lossy(&o.stderr).into_owned()
     };
-    let e = err(identify(d, &["--sweep-from", "shard0.json", "shard1.json"]));
+    let e = err(identify(d, &["merge"], &["--sweep-from", "shard0.json", "shard1.json"]));
     assert!(e.contains("missing shards 2/3"), "{e}");
-    let e = err(identify(d, &["--sweep-from", "shard0.json", "shard0.json", "shard1.json"]));
+    let twice = ["--sweep-from", "shard0.json", "shard0.json", "shard1.json"];
+    let e = err(identify(d, &["merge"], &twice));
     assert!(e.contains("given twice"), "{e}");
     let other_seed = mesopush(
-        &["identify", "trials", "--mu-step", "0.25", "--supports", "5", "--seed", "5"]
+        &["identify", "merge", "trials", "--mu-step", "0.25", "--supports", "5", "--seed", "5"]
             .iter()
             .copied()
             .chain(from)

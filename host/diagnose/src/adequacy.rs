@@ -10,9 +10,10 @@
 //! the same margin a held-out win needs (a small support drift: the nominal model alone fits
 //! six trials inside the band, the drift fits them several times better).
 
-use super::attribute::Options;
 use super::data::TrialData;
 use super::fit::{Fit, fit_where};
+use super::objective::residuals;
+use super::options::Options;
 use super::predict::valid_over_batch;
 use super::residual::{Mse, Noise};
 use crate::Error;
@@ -42,7 +43,7 @@ pub fn refit_on_all(
     let last = all.iter().map(|t| t.index).max().unwrap_or(0);
     let ok = |m: &Model| valid_over_batch(m, last);
     let f = fit_where(from.candidate, base, all, settings, noise, &start, evals, &ok);
-    let r = super::attribute::residuals(all, &f.model, settings)?;
+    let r = residuals(all, &f.model, settings)?;
     let error_norm = Mse::of(&r).normalised(noise, with_tip);
     Ok(Adequacy { fit: f, error_norm })
 }

@@ -5,83 +5,18 @@
 //! `unexplained` otherwise.
 
 use super::adequacy::AllTrials;
-use super::candidates::{Candidate, NOMINAL};
+use super::candidates::{Effect, NOMINAL, base_model};
 use super::data::TrialData;
-use super::decide::{Ambiguity, decide, training_lead};
-use super::fit::{Fit, fit, fit_where, loss};
-use super::predict::{predict, valid_over_batch};
+use super::decide::{Ambiguity, EffectScore, Verdict, decide, training_lead};
+use super::fit::{Fit, fit, fit_where};
+use super::objective::{loss, residuals};
+use super::options::Options;
+use super::predict::valid_over_batch;
 use super::residual::{Mse, Noise, Residual};
 use super::starts::{StartContext, starts};
 use crate::Error;
 use mesopush_sim::{Model, SimSettings};
 use rayon::prelude::*;
-use serde::Serialize;
-
-/// Knobs of a diagnosis (defaults for a real batch; tests shrink the budgets).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Options {
-    /// Simplex evaluations for the nominal fit.
-    pub nominal_evals: usize,
-    /// Evaluations (start grid included) for each effect fit.
-    pub effect_evals: usize,
-    /// Candidates to try.
-    pub candidates: Vec<Candidate>,
-    /// Simulator settings.
-    pub settings: SimSettings,
-    /// Smallest relative drop of the held-out error that counts (0.3 = 30 %).
-    pub min_gain: f64,
-    /// The nominal residual counts as at the floor below this many times the floor.
-    pub floor_factor: f64,
-    /// Smallest BIC improvement on the training trials that counts.
-    pub min_delta_bic: f64,
-    /// Ambiguity: when the winner's held-out error stays above the floor band and another
-    /// effect's is within this factor of it (1.15 = 15 % worse), two explanations fit the
-    /// held-out trials about as well and neither explains them; the verdict is then
-    /// `unexplained` (naming both in the diagnosis's `ambiguity`), never a guess between them.
-    pub ambiguity_ratio: f64,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Self {
-            nominal_evals: 120,
-            effect_evals: 80,
-            candidates: Candidate::EFFECTS.to_vec(),
-            settings: SimSettings::default(),
-            min_gain: 0.3,
-            floor_factor: 5.0,
-            min_delta_bic: 10.0,
-            ambiguity_ratio: 1.15,
-        }
-    }
-}
-
-/// What a diagnosis concluded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Verdict {
-    /// A library effect explains the residual.
-    Effect,
-    /// The residual is above the floor and no candidate explains it.
-    Unexplained,
-    /// The residual is at the measurement floor: no missing effect.
-    None,
-}
-
-/// One candidate's fit and held-out score.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Score {
-    /// The candidate.
-    pub candidate: Candidate,
-    /// Fitted parameters: name, value, 1σ (NaN when not estimated).
-    pub params: Vec<(String, f64, f64)>,
-    /// BIC on the training trials.
-    pub bic: f64,
-    /// Held-out errors.
-    pub heldout: Mse,
-    /// Held-out error in noise units.
-    pub heldout_norm: f64,
-}
 
 /// A whole diagnosis.
 #[derive(Debug, Clone)]
@@ -89,9 +24,9 @@ pub struct Diagnosis {
     /// The verdict.
     pub verdict: Verdict,
     /// The winning effect, when the verdict is `effect`.
-    pub effect: Option<Candidate>,
+    pub effect: Option<Effect>,
     /// Nominal fit, then one score per candidate tried.
-    pub scores: Vec<Score>,
+    pub scores: Vec<EffectScore>,
     /// The nominal fit.
     pub nominal: Fit,
     /// The winning extended fit (the nominal one when no effect was found).
@@ -112,46 +47,13 @@ pub struct Diagnosis {
     pub ambiguity: Option<Ambiguity>,
     /// When the verdict is `unexplained`: the effect that fits the training trials best
     /// (beating the nominal BIC by `min_delta_bic`), a lead for whoever looks further.
-    pub training_lead: Option<Candidate>,
+    pub training_lead: Option<Effect>,
     /// Training and held-out trial ids.
     pub split: (Vec<String>, Vec<String>),
     /// Held-out residuals before (nominal) and after (extended model).
     pub residuals: (Vec<Residual>, Vec<Residual>),
     /// Held-out trials.
     pub heldout: Vec<TrialData>,
-}
-
-/// The starting model for a batch's part: the default model for the paper's peg, else a
-/// symmetric support inside the part.
-pub fn base_model(part: &mesopush_sim::Part) -> Model {
-    let default = Model::default();
-    if *part == default.part {
-        return default;
-    }
-    let (lo, hi) = part.polygon().bounds();
-    let support = mesopush_sim::SupportDistribution::symmetric(
-        0.25 * (hi.x - lo.x) / 2.0,
-        0.5 * (hi.y - lo.y) / 2.0,
-        0.3,
-    );
-    Model { part: part.clone(), support, ..default }
-}
-
-/// Held-out residuals of `model`; a trial it cannot simulate is an error naming it.
-pub fn residuals(
-    trials: &[TrialData],
-    model: &Model,
-    s: &SimSettings,
-) -> Result<Vec<Residual>, Error> {
-    trials
-        .iter()
-        .map(|t| {
-            let p = predict(t, model, s).map_err(|e| {
-                Error::invalid("diagnose", format!("trial {} cannot be simulated: {e}", t.id))
-            })?;
-            Ok(Residual::new(t, &p))
-        })
-        .collect()
 }
 
 /// The nominal fit, improved where a candidate's fit found better *nominal* parameters: each
@@ -172,13 +74,13 @@ fn rescue_nominal(
         .iter()
         .map(|f| {
             let v = f.values[..k].to_vec();
-            let l = loss(train, &Candidate::Nominal.apply(base, &v), s, noise).0;
+            let l = loss(train, &Effect::Nominal.apply(base, &v), s, noise).0;
             (v, l)
         })
         .min_by(|a, b| a.1.total_cmp(&b.1));
     match best {
         Some((v, l)) if l < nominal.loss => {
-            let refit = fit(Candidate::Nominal, base, train, s, noise, &[v], evals / 2);
+            let refit = fit(Effect::Nominal, base, train, s, noise, &[v], evals / 2);
             if refit.loss < nominal.loss { refit } else { nominal }
         }
         _ => nominal,
@@ -192,6 +94,32 @@ fn ids(trials: &[TrialData]) -> Vec<String> {
 fn bic(f: &Fit) -> f64 {
     let n = f.n as f64;
     n * (f.loss / n).max(1e-300).ln() + f.values.len() as f64 * n.ln()
+}
+
+/// Every candidate of `opts` fitted on `train` from its signature's starts about the
+/// `nominal` fit (in parallel, collected in the candidates' order).
+fn fit_effects(
+    base: &Model,
+    nominal: &Fit,
+    train: &[TrialData],
+    noise: &Noise,
+    last_index: usize,
+    opts: &Options,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Vec<Fit> {
+    let s = &opts.settings;
+    opts.candidates
+        .par_iter()
+        .map(|&c| {
+            progress(c.name());
+            let ctx =
+                StartContext { base, settings: s, noise, evals_per_trial: opts.effect_evals / 3 };
+            let st = starts(c, &nominal.values, train, &ctx);
+            let budget = opts.effect_evals.max(st.len() + 4);
+            let ok = |m: &Model| valid_over_batch(m, last_index);
+            fit_where(c, base, train, s, noise, &st, budget, &ok)
+        })
+        .collect()
 }
 
 /// Runs the whole diagnosis on `train` and `heldout` trials.
@@ -215,24 +143,8 @@ pub fn diagnose(
     let s = &opts.settings;
     progress("nominal");
     let x0 = vec![base.mu_probe, base.support.mu_surface[0], 0.0, 0.0];
-    let nominal = fit(Candidate::Nominal, &base, train, s, &noise, &[x0], opts.nominal_evals);
-    let fits: Vec<Fit> = opts
-        .candidates
-        .par_iter()
-        .map(|&c| {
-            progress(c.name());
-            let ctx = StartContext {
-                base: &base,
-                settings: s,
-                noise: &noise,
-                evals_per_trial: opts.effect_evals / 3,
-            };
-            let st = starts(c, &nominal.values, train, &ctx);
-            let budget = opts.effect_evals.max(st.len() + 4);
-            let ok = |m: &Model| valid_over_batch(m, last_index);
-            fit_where(c, &base, train, s, &noise, &st, budget, &ok)
-        })
-        .collect();
+    let nominal = fit(Effect::Nominal, &base, train, s, &noise, &[x0], opts.nominal_evals);
+    let fits = fit_effects(&base, &nominal, train, &noise, last_index, opts, progress);
     let nominal = rescue_nominal(nominal, &fits, &base, train, s, &noise, opts.nominal_evals);
     let before = residuals(heldout, &nominal.model, s)?;
     let e0 = Mse::of(&before).normalised(&noise, with_tip);
@@ -268,13 +180,13 @@ pub fn diagnose(
     })
 }
 
-fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bool) -> Score {
+fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bool) -> EffectScore {
     let heldout_mse = match residuals(heldout, &f.model, s) {
         Ok(r) => Mse::of(&r),
         Err(_) => Mse { xy_um2: f64::INFINITY, theta_rad2: f64::INFINITY, tip_um2: f64::INFINITY },
     };
     let names = f.candidate.params();
-    Score {
+    EffectScore {
         candidate: f.candidate,
         params: names
             .iter()
@@ -292,7 +204,7 @@ fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bo
 fn attach_uncertainty(
     best: &Fit,
     base: &Model,
-    scores: &mut [Score],
+    scores: &mut [EffectScore],
     train: &[TrialData],
     s: &SimSettings,
     noise: &Noise,

@@ -1,16 +1,18 @@
 //! The candidates attribution tries: the nominal parameters alone, and the nominal ones
 //! together with one library effect. Each candidate is a parameter vector with bounds, a
 //! coarse grid to start the search from (some effects, like a pull-off force, change the
-//! fit in steps, which a simplex alone cannot climb), and a map onto a [`Model`].
+//! fit in steps, which a simplex alone cannot climb), and a map onto a [`Model`] built on
+//! the batch's [`base_model`].
 
-use mesopush_sim::Model;
 use mesopush_sim::effects::{Adhesion, FrictionPatch, SpeedFriction, SupportDrift};
+use mesopush_sim::{Model, Part, SupportDistribution};
 use serde::Serialize;
 
-/// A library effect (or none: the nominal model).
+/// A candidate of attribution: a library effect (or none: the nominal model). Serialised by
+/// its variant name in snake case (`friction_patch`); [`Effect::name`] is the library name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Candidate {
+pub enum Effect {
     /// Nominal parameters only.
     Nominal,
     /// Stage backlash per axis.
@@ -58,31 +60,53 @@ pub const NOMINAL: [Param; 4] = [
     p("support_dy_um", -400.0, 400.0, 40.0, &[]),
 ];
 
-impl Candidate {
+/// The starting model for a batch's part: the default model for the paper's peg, else a
+/// symmetric support inside the part.
+pub fn base_model(part: &Part) -> Model {
+    let default = Model::default();
+    if *part == default.part {
+        return default;
+    }
+    let (lo, hi) = part.polygon().bounds();
+    let support =
+        SupportDistribution::symmetric(0.25 * (hi.x - lo.x) / 2.0, 0.5 * (hi.y - lo.y) / 2.0, 0.3);
+    Model { part: part.clone(), support, ..default }
+}
+
+impl Effect {
     /// Every effect candidate (the nominal one excluded).
-    pub const EFFECTS: [Candidate; 8] = [
-        Candidate::Backlash,
-        Candidate::Latency,
-        Candidate::Scale,
-        Candidate::Compliance,
-        Candidate::Adhesion,
-        Candidate::FrictionPatch,
-        Candidate::SpeedFriction,
-        Candidate::SupportDrift,
+    pub const EFFECTS: [Effect; 8] = [
+        Effect::Backlash,
+        Effect::Latency,
+        Effect::Scale,
+        Effect::Compliance,
+        Effect::Adhesion,
+        Effect::FrictionPatch,
+        Effect::SpeedFriction,
+        Effect::SupportDrift,
     ];
+
+    /// The effect called `name` (a library name of [`Effect::EFFECTS`]), or the nominal model
+    /// for `none`; `None` for anything else.
+    pub fn from_name(name: &str) -> Option<Effect> {
+        if name == "none" {
+            return Some(Effect::Nominal);
+        }
+        Effect::EFFECTS.into_iter().find(|c| c.name() == name)
+    }
 
     /// Library name (as in `--json` and the docs).
     pub fn name(self) -> &'static str {
         match self {
-            Candidate::Nominal => "nominal",
-            Candidate::Backlash => "backlash",
-            Candidate::Latency => "camera_latency",
-            Candidate::Scale => "scale_error",
-            Candidate::Compliance => "probe_compliance",
-            Candidate::Adhesion => "adhesion",
-            Candidate::FrictionPatch => "friction_patch",
-            Candidate::SpeedFriction => "speed_friction",
-            Candidate::SupportDrift => "support_drift",
+            Effect::Nominal => "nominal",
+            Effect::Backlash => "backlash",
+            Effect::Latency => "camera_latency",
+            Effect::Scale => "scale_error",
+            Effect::Compliance => "probe_compliance",
+            Effect::Adhesion => "adhesion",
+            Effect::FrictionPatch => "friction_patch",
+            Effect::SpeedFriction => "speed_friction",
+            Effect::SupportDrift => "support_drift",
         }
     }
 
@@ -90,20 +114,20 @@ impl Candidate {
     pub fn effect_params(self) -> &'static [Param] {
         const G_B: &[f64] = &[4.0, 12.0, 25.0];
         match self {
-            Candidate::Nominal => &[],
-            Candidate::Backlash => {
+            Effect::Nominal => &[],
+            Effect::Backlash => {
                 const P: [Param; 2] = [
                     p("backlash_x_um", 0.0, 80.0, 3.0, G_B),
                     p("backlash_y_um", 0.0, 80.0, 3.0, G_B),
                 ];
                 &P
             }
-            Candidate::Latency => {
+            Effect::Latency => {
                 const P: [Param; 1] =
                     [p("camera_latency_us", -100e3, 300e3, 10e3, &[-30e3, 30e3, 70e3, 120e3])];
                 &P
             }
-            Candidate::Scale => {
+            Effect::Scale => {
                 const G: &[f64] = &[-0.02, 0.0, 0.02];
                 const P: [Param; 2] = [
                     p("scale_error_x", -0.1, 0.1, 0.005, G),
@@ -111,17 +135,17 @@ impl Candidate {
                 ];
                 &P
             }
-            Candidate::Compliance => {
+            Effect::Compliance => {
                 const P: [Param; 1] =
                     [p("probe_compliance_um_per_weight", 0.0, 300.0, 5.0, &[5.0, 20.0, 60.0])];
                 &P
             }
-            Candidate::Adhesion => {
+            Effect::Adhesion => {
                 const P: [Param; 1] =
                     [p("pull_off_weight", 0.0, 3.0, 0.05, &[0.05, 0.15, 0.3, 0.5, 0.8, 1.5])];
                 &P
             }
-            Candidate::FrictionPatch => {
+            Effect::FrictionPatch => {
                 const P: [Param; 5] = [
                     p("patch_mu_surface", 0.0, 2.0, 0.1, &[0.1, 0.6, 1.0]),
                     p("patch_min_x_um", -5e3, 10e3, 200.0, &[]),
@@ -131,11 +155,11 @@ impl Candidate {
                 ];
                 &P
             }
-            Candidate::SpeedFriction => {
+            Effect::SpeedFriction => {
                 const P: [Param; 1] = [p("gain_per_mm_s", -3.0, 10.0, 0.2, &[-0.5, 1.0, 2.0, 3.5])];
                 &P
             }
-            Candidate::SupportDrift => {
+            Effect::SupportDrift => {
                 const G: &[f64] = &[-12.0, 0.0, 12.0];
                 const P: [Param; 2] = [
                     p("drift_x_um_per_trial", -100.0, 100.0, 3.0, G),
@@ -151,7 +175,7 @@ impl Candidate {
         NOMINAL.iter().chain(self.effect_params()).copied().collect()
     }
 
-    /// The model for parameter vector `v` (as laid out by [`Candidate::params`]), built on
+    /// The model for parameter vector `v` (as laid out by [`Effect::params`]), built on
     /// `base` (whose support the shift moves).
     pub fn apply(self, base: &Model, v: &[f64]) -> Model {
         let mut m = base.clone();
@@ -164,25 +188,25 @@ impl Candidate {
         let e = &v[NOMINAL.len()..];
         let fx = &mut m.effects;
         match self {
-            Candidate::Nominal => {}
-            Candidate::Backlash => fx.backlash_um = [e[0], e[1]],
-            Candidate::Latency => fx.camera_latency_us = e[0],
-            Candidate::Scale => fx.scale_error = [e[0], e[1]],
-            Candidate::Compliance => fx.probe_compliance_um_per_weight = Some(e[0]),
-            Candidate::Adhesion => {
+            Effect::Nominal => {}
+            Effect::Backlash => fx.backlash_um = [e[0], e[1]],
+            Effect::Latency => fx.camera_latency_us = e[0],
+            Effect::Scale => fx.scale_error = [e[0], e[1]],
+            Effect::Compliance => fx.probe_compliance_um_per_weight = Some(e[0]),
+            Effect::Adhesion => {
                 fx.adhesion = Some(Adhesion { pull_off_weight: e[0], range_um: 2.0 })
             }
-            Candidate::FrictionPatch => {
+            Effect::FrictionPatch => {
                 fx.friction_patch = Some(FrictionPatch {
                     mu_surface: e[0],
                     min_um: [e[1].min(e[3]), e[2].min(e[4])],
                     max_um: [e[1].max(e[3]), e[2].max(e[4])],
                 })
             }
-            Candidate::SpeedFriction => {
+            Effect::SpeedFriction => {
                 fx.speed_friction = Some(SpeedFriction { gain_per_mm_s: e[0] })
             }
-            Candidate::SupportDrift => {
+            Effect::SupportDrift => {
                 fx.support_drift = Some(SupportDrift {
                     points_um_per_trial: [e[0], e[1]],
                     mu_surface_per_trial: 0.0,
@@ -195,21 +219,21 @@ impl Candidate {
     /// The physical signature that points at this effect (for the report).
     pub fn signature(self) -> &'static str {
         match self {
-            Candidate::Nominal => "",
-            Candidate::Backlash => {
+            Effect::Nominal => "",
+            Effect::Backlash => {
                 "residual steps after probe direction reversals, signed by the new direction; \
                  imaged tip lags the command by a constant after each reversal"
             }
-            Candidate::Latency => {
+            Effect::Latency => {
                 "residual proportional to velocity (peg and imaged tip lag the model by a \
                  constant time)"
             }
-            Candidate::Scale => "residual proportional to the distance from the image origin",
-            Candidate::Compliance => "imaged tip behind the command in proportion to contact force",
-            Candidate::Adhesion => "peg moves while the probe retracts (after contact release)",
-            Candidate::FrictionPatch => "residual grows in one region of the plate",
-            Candidate::SpeedFriction => "residual correlates with probe speed",
-            Candidate::SupportDrift => "residual trends with the trial's place in the batch",
+            Effect::Scale => "residual proportional to the distance from the image origin",
+            Effect::Compliance => "imaged tip behind the command in proportion to contact force",
+            Effect::Adhesion => "peg moves while the probe retracts (after contact release)",
+            Effect::FrictionPatch => "residual grows in one region of the plate",
+            Effect::SpeedFriction => "residual correlates with probe speed",
+            Effect::SupportDrift => "residual trends with the trial's place in the batch",
         }
     }
 }

@@ -10,7 +10,7 @@ use mesopush_sim::fixture::rect;
 use mesopush_sim::{Fixture, Part, ProbePoint};
 use mesopush_trial::{Trial, files};
 use serde::Deserialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// One measured frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -119,4 +119,21 @@ impl TrialData {
     pub fn has_tips(&self) -> bool {
         self.frames.iter().any(|f| f.tip_um.is_some())
     }
+}
+
+/// Loads the trials of `dirs` (each indexed by its place in the list) and splits them: even
+/// places train, odd ones are held out. At least two are needed.
+pub fn load_split(dirs: &[PathBuf]) -> Result<(Vec<TrialData>, Vec<TrialData>), Error> {
+    if dirs.len() < 2 {
+        return Err(Error::invalid(
+            "trials",
+            format!(
+                "{} given; diagnosis needs at least two (one to train on, one held out)",
+                dirs.len()
+            ),
+        ));
+    }
+    let trials: Vec<TrialData> =
+        dirs.iter().enumerate().map(|(i, d)| TrialData::load(d, i)).collect::<Result<_, _>>()?;
+    Ok(trials.into_iter().partition(|t| t.index % 2 == 0))
 }

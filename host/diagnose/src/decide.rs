@@ -2,29 +2,58 @@
 //! wins on the training BIC *and* on the held-out error, clearly; `unexplained` otherwise —
 //! with the two effects the evidence is split between when there are two.
 
-use super::attribute::{Options, Score, Verdict};
-use super::candidates::Candidate;
+use super::candidates::Effect;
 use super::fit::Fit;
+use super::options::Options;
+use super::residual::Mse;
+use serde::Serialize;
+
+/// What a diagnosis concluded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// A library effect explains the residual.
+    Effect,
+    /// The residual is above the floor and no candidate explains it.
+    Unexplained,
+    /// The residual is at the measurement floor: no missing effect.
+    None,
+}
+
+/// One candidate's fit and held-out score.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EffectScore {
+    /// The candidate.
+    pub candidate: Effect,
+    /// Fitted parameters: name, value, 1σ (NaN when not estimated).
+    pub params: Vec<(String, f64, f64)>,
+    /// BIC on the training trials.
+    pub bic: f64,
+    /// Held-out errors.
+    pub heldout: Mse,
+    /// Held-out error in noise units.
+    pub heldout_norm: f64,
+}
 
 /// Why two effects were in the running and neither was named.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Ambiguity {
     /// Both fit the held-out trials about as well, above the floor band (best first).
-    Tie(Candidate, Candidate),
+    Tie(Effect, Effect),
     /// One fits the held-out trials best, another fits the training trials far better: an
     /// effect that explains the training trials but does not carry over to held-out ones, or
     /// one that carries over only by chance. Either way the evidence does not agree.
     TrainVsHeldout {
         /// The held-out winner.
-        heldout: Candidate,
+        heldout: Effect,
         /// The training (BIC) winner.
-        train: Candidate,
+        train: Effect,
     },
 }
 
 impl Ambiguity {
     /// The two effects (the held-out one first).
-    pub fn pair(&self) -> (Candidate, Candidate) {
+    pub fn pair(&self) -> (Effect, Effect) {
         match *self {
             Self::Tie(a, b) => (a, b),
             Self::TrainVsHeldout { heldout, train } => (heldout, train),
@@ -34,7 +63,7 @@ impl Ambiguity {
 
 /// The effect that fits the training trials best, when it beats the nominal BIC by
 /// `min_delta_bic` (reported as a lead even when the verdict is `unexplained`).
-pub fn training_lead(scores: &[Score], opts: &Options) -> Option<Candidate> {
+pub fn training_lead(scores: &[EffectScore], opts: &Options) -> Option<Effect> {
     let bic0 = scores.first()?.bic;
     scores[1..]
         .iter()
@@ -49,7 +78,7 @@ pub fn training_lead(scores: &[Score], opts: &Options) -> Option<Candidate> {
 /// effect ties with it well above the floor (`ambiguity_ratio`) or the training trials favour
 /// another effect by more than `min_delta_bic`; else `unexplained`.
 pub fn decide<'f>(
-    scores: &[Score],
+    scores: &[EffectScore],
     fits: &'f [Fit],
     e0: f64,
     floor: f64,
@@ -59,7 +88,7 @@ pub fn decide<'f>(
         return (Verdict::None, None, None);
     }
     let bic0 = scores[0].bic;
-    let mut ok: Vec<(&Score, &Fit)> = scores[1..]
+    let mut ok: Vec<(&EffectScore, &Fit)> = scores[1..]
         .iter()
         .zip(fits)
         .filter(|(sc, _)| sc.bic < bic0 - opts.min_delta_bic)
@@ -91,18 +120,17 @@ pub fn decide<'f>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::attribute::base_model;
-    use crate::residual::Mse;
+    use crate::candidates::base_model;
     use mesopush_sim::Part;
 
-    fn fit_of(c: Candidate) -> Fit {
+    fn fit_of(c: Effect) -> Fit {
         let model = base_model(&Part::default_peg());
         Fit { candidate: c, values: vec![], model, loss: 1.0, n: 100, evals: 0 }
     }
 
-    fn score_of(c: Candidate, bic: f64, heldout_norm: f64) -> Score {
+    fn score_of(c: Effect, bic: f64, heldout_norm: f64) -> EffectScore {
         let heldout = Mse { xy_um2: 0.0, theta_rad2: 0.0, tip_um2: 0.0 };
-        Score { candidate: c, params: vec![], bic, heldout, heldout_norm }
+        EffectScore { candidate: c, params: vec![], bic, heldout, heldout_norm }
     }
 
     /// Patch seed 11 of the confusion run: drift and patch tied far above the floor and the
@@ -110,43 +138,43 @@ mod tests {
     #[test]
     fn two_effects_tied_far_above_the_floor_are_unexplained_not_a_guess() {
         let opts = Options::default();
-        let fits = [fit_of(Candidate::SupportDrift), fit_of(Candidate::FrictionPatch)];
+        let fits = [fit_of(Effect::SupportDrift), fit_of(Effect::FrictionPatch)];
         let scores = [
-            score_of(Candidate::Nominal, 0.0, 40_000.0),
-            score_of(Candidate::SupportDrift, -500.0, 24_083.0),
-            score_of(Candidate::FrictionPatch, -400.0, 25_627.0),
+            score_of(Effect::Nominal, 0.0, 40_000.0),
+            score_of(Effect::SupportDrift, -500.0, 24_083.0),
+            score_of(Effect::FrictionPatch, -400.0, 25_627.0),
         ];
         let (v, best, amb) = decide(&scores, &fits, 40_000.0, 2.0, &opts);
         assert_eq!(v, Verdict::Unexplained);
         assert!(best.is_none());
-        assert_eq!(amb, Some(Ambiguity::Tie(Candidate::SupportDrift, Candidate::FrictionPatch)));
+        assert_eq!(amb, Some(Ambiguity::Tie(Effect::SupportDrift, Effect::FrictionPatch)));
     }
 
     #[test]
     fn a_clear_winner_or_one_at_the_floor_is_named_despite_a_runner_up() {
         let opts = Options::default();
-        let fits = [fit_of(Candidate::Backlash), fit_of(Candidate::Adhesion)];
+        let fits = [fit_of(Effect::Backlash), fit_of(Effect::Adhesion)];
         // Far above the floor but the runner-up is 2x worse: named.
         let scores = [
-            score_of(Candidate::Nominal, 0.0, 600.0),
-            score_of(Candidate::Backlash, -500.0, 50.0),
-            score_of(Candidate::Adhesion, -400.0, 100.0),
+            score_of(Effect::Nominal, 0.0, 600.0),
+            score_of(Effect::Backlash, -500.0, 50.0),
+            score_of(Effect::Adhesion, -400.0, 100.0),
         ];
         let (v, best, _) = decide(&scores, &fits, 600.0, 2.0, &opts);
-        assert_eq!((v, best.map(|f| f.candidate)), (Verdict::Effect, Some(Candidate::Backlash)));
+        assert_eq!((v, best.map(|f| f.candidate)), (Verdict::Effect, Some(Effect::Backlash)));
         // Tied, but the winner reaches the floor band: named.
         let scores = [
-            score_of(Candidate::Nominal, 0.0, 600.0),
-            score_of(Candidate::Backlash, -500.0, 5.0),
-            score_of(Candidate::Adhesion, -400.0, 5.2),
+            score_of(Effect::Nominal, 0.0, 600.0),
+            score_of(Effect::Backlash, -500.0, 5.0),
+            score_of(Effect::Adhesion, -400.0, 5.2),
         ];
         let (v, best, _) = decide(&scores, &fits, 600.0, 2.0, &opts);
-        assert_eq!((v, best.map(|f| f.candidate)), (Verdict::Effect, Some(Candidate::Backlash)));
+        assert_eq!((v, best.map(|f| f.candidate)), (Verdict::Effect, Some(Effect::Backlash)));
         // A runner-up that fails the BIC test does not make it ambiguous.
         let scores = [
-            score_of(Candidate::Nominal, 0.0, 600.0),
-            score_of(Candidate::Backlash, -500.0, 50.0),
-            score_of(Candidate::Adhesion, 5.0, 51.0),
+            score_of(Effect::Nominal, 0.0, 600.0),
+            score_of(Effect::Backlash, -500.0, 50.0),
+            score_of(Effect::Adhesion, 5.0, 51.0),
         ];
         let (v, _, amb) = decide(&scores, &fits, 600.0, 2.0, &opts);
         assert_eq!((v, amb), (Verdict::Effect, None));
@@ -155,12 +183,11 @@ mod tests {
     #[test]
     fn at_the_floor_is_none_and_no_gain_is_unexplained() {
         let opts = Options::default();
-        let fits = [fit_of(Candidate::Backlash)];
-        let scores =
-            [score_of(Candidate::Nominal, 0.0, 8.0), score_of(Candidate::Backlash, -50.0, 7.0)];
+        let fits = [fit_of(Effect::Backlash)];
+        let scores = [score_of(Effect::Nominal, 0.0, 8.0), score_of(Effect::Backlash, -50.0, 7.0)];
         assert_eq!(decide(&scores, &fits, 8.0, 2.0, &opts).0, Verdict::None);
         let scores =
-            [score_of(Candidate::Nominal, 0.0, 90.0), score_of(Candidate::Backlash, -50.0, 80.0)];
+            [score_of(Effect::Nominal, 0.0, 90.0), score_of(Effect::Backlash, -50.0, 80.0)];
         assert_eq!(decide(&scores, &fits, 90.0, 2.0, &opts).0, Verdict::Unexplained);
     }
 
@@ -170,19 +197,19 @@ mod tests {
     #[test]
     fn a_held_out_winner_the_training_trials_disfavour_is_not_named() {
         let opts = Options::default();
-        let fits = [fit_of(Candidate::FrictionPatch), fit_of(Candidate::SupportDrift)];
+        let fits = [fit_of(Effect::FrictionPatch), fit_of(Effect::SupportDrift)];
         let scores = [
-            score_of(Candidate::Nominal, 5653.0, 70_903.0),
-            score_of(Candidate::FrictionPatch, 1014.0, 136_471.0),
-            score_of(Candidate::SupportDrift, 5583.0, 47_705.0),
+            score_of(Effect::Nominal, 5653.0, 70_903.0),
+            score_of(Effect::FrictionPatch, 1014.0, 136_471.0),
+            score_of(Effect::SupportDrift, 5583.0, 47_705.0),
         ];
         let (v, best, amb) = decide(&scores, &fits, 70_903.0, 3.0, &opts);
         assert_eq!((v, best.map(|f| f.candidate)), (Verdict::Unexplained, None));
         let split = Ambiguity::TrainVsHeldout {
-            heldout: Candidate::SupportDrift,
-            train: Candidate::FrictionPatch,
+            heldout: Effect::SupportDrift,
+            train: Effect::FrictionPatch,
         };
         assert_eq!(amb, Some(split));
-        assert_eq!(training_lead(&scores, &opts), Some(Candidate::FrictionPatch));
+        assert_eq!(training_lead(&scores, &opts), Some(Effect::FrictionPatch));
     }
 }

@@ -4,15 +4,28 @@
 //! ([`mesopush_sim::effects`]) together with the nominal parameters, and attribute the residual to
 //! the effect that explains it on held-out trials — or say honestly that none does, or that
 //! the residual is already at the measurement floor. `docs/diagnose.md` has the method.
+//!
+//! Layers, bottom up: the trials ([`data`]), their prediction ([`predict`]) and residuals
+//! ([`residual`], [`tip`], [`structure`]); the candidates ([`candidates`]), what the fits
+//! minimise ([`objective`]) and the fitter ([`fit`], on the minimisers of
+//! [`mesopush_ident::optim`]); where each search starts ([`starts`]); the verdict
+//! ([`decide`], [`adequacy`]) and the whole diagnosis ([`attribute`], [`options`]); its report
+//! ([`report`]). Batches to test it on: [`synth`] (synthetic, one undeclared effect),
+//! [`rig_batch`] (through the whole simulated loop) and the experiment over both, [`confusion`].
+//!
+//! May depend on: `mesopush-core`, `mesopush-sim`, `mesopush-trial`, `mesopush-ident` and
+//! `mesopush-rig`. Never on planning, batches or the command line.
 
 pub mod adequacy;
 pub mod attribute;
 pub mod candidates;
+pub mod confusion;
 pub mod data;
 pub mod decide;
 pub mod error;
 pub mod fit;
-pub mod patch;
+pub mod objective;
+pub mod options;
 pub mod predict;
 pub mod report;
 pub mod residual;
@@ -22,7 +35,9 @@ pub mod structure;
 pub mod synth;
 pub mod tip;
 
-pub use attribute::{Diagnosis, Options, Verdict, diagnose};
-pub use candidates::Candidate;
+pub use attribute::{Diagnosis, diagnose};
+pub use candidates::Effect;
 pub use data::TrialData;
+pub use decide::{EffectScore, Verdict};
 pub use error::Error;
+pub use options::Options;

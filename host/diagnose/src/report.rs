@@ -2,9 +2,9 @@
 //! the fitted parameters with their uncertainty, the residual's structure, the JSON summary
 //! and the before/after residual plots.
 
-use super::attribute::{Diagnosis, Verdict};
-use super::candidates::Candidate;
-use super::decide::Ambiguity;
+use super::attribute::Diagnosis;
+use super::candidates::Effect;
+use super::decide::{Ambiguity, Verdict};
 use super::residual::Mse;
 use super::structure::Structure;
 use crate::Error;
@@ -20,7 +20,7 @@ pub fn mse_before_after(d: &Diagnosis) -> (Mse, Mse) {
 /// Held-out error in noise units before (nominal) and after (the winner).
 fn norms(d: &Diagnosis) -> (f64, f64) {
     let of = |c| d.scores.iter().find(|s| s.candidate == c).map_or(f64::NAN, |s| s.heldout_norm);
-    (of(Candidate::Nominal), of(d.best.candidate))
+    (of(Effect::Nominal), of(d.best.candidate))
 }
 
 /// How much of the held-out error the named effect explains, and whether what remains is

@@ -6,6 +6,7 @@
 use super::data::TrialData;
 use super::predict::Prediction;
 use mesopush_core::geom::Vec2;
+use mesopush_core::stats::percentile;
 use serde::Serialize;
 
 /// Noise standard deviations of the measurement channels.
@@ -19,13 +20,14 @@ pub struct Noise {
     pub tip_um: f64,
 }
 
-/// Robust σ of white noise from second differences: median |Δ²| · 1.4826 / √6.
+/// Robust σ of white noise from second differences: median |Δ²| · 1.4826 / √6, the median
+/// taken as the sample at rank n/2 (the upper one of an even count:
+/// [`percentile`] at 0.5, not the mean of the middle two).
 fn sigma_of(mut d: Vec<f64>) -> Option<f64> {
     if d.len() < 3 {
         return None;
     }
-    d.sort_by(f64::total_cmp);
-    Some(d[d.len() / 2] * 1.4826 / 6f64.sqrt())
+    percentile(&mut d, 0.5).map(|m| m * 1.4826 / 6f64.sqrt())
 }
 
 /// The σ of one series' noise: from every window's second difference, unless the series

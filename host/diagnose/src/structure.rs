@@ -5,6 +5,7 @@
 //! nothing in the library explains the residual.
 
 use super::residual::{FrameResidual, Noise, Residual};
+use mesopush_core::stats::percentile;
 use serde::Serialize;
 
 /// Summary numbers of a set of residuals (pooled over trials).
@@ -120,10 +121,8 @@ impl Structure {
                 rms(frames.iter().filter(|f| !pred(f)).map(mag)),
             ]
         };
-        let median = |mut v: Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            v.get(v.len() / 2).copied().unwrap_or(0.0)
-        };
+        // The sample at rank n/2 (the upper median of an even count), 0 when empty.
+        let median = |mut v: Vec<f64>| percentile(&mut v, 0.5).unwrap_or(0.0);
         let mx = median(frames.iter().map(|f| f.pos_um.x).collect());
         let my = median(frames.iter().map(|f| f.pos_um.y).collect());
         let ms = median(frames.iter().map(|f| f.cmd_vel_um_s.norm()).collect());

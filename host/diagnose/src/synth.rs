@@ -9,17 +9,18 @@
 //! Frames at 30 Hz: the peg pose and tip at the exposure, through the scale error, stamped
 //! late by the latency, with tracker-like noise (0.3 µm, 0.04°; tip 0.5 µm).
 
-use super::candidates::Candidate;
+use super::candidates::Effect;
 use super::data::{Measured, TrialData, open_plate};
-use super::predict::predict_open_loop;
+use super::predict::{Prediction, predict_open_loop};
 use crate::Error;
 use mesopush_core::geom::{Pose, Vec2};
+use mesopush_protocol::units;
 use mesopush_sim::effects::{Adhesion, Effects, FrictionPatch, SpeedFriction, SupportDrift};
 use mesopush_sim::{Model, ProbePoint, SimSettings, Simulator, follow_path};
 use mesopush_trial::{Outcome, TrialMeta, TrialState, TrialWriter};
 use rand::{Rng, RngExt};
 use serde::Serialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Setpoint period, s (100 Hz).
 const CMD_DT_S: f64 = 0.01;
@@ -51,29 +52,27 @@ fn normal(rng: &mut impl Rng) -> f64 {
 }
 
 /// One library effect at a realistic size (the ranges), drawn from `rng`.
-pub fn realistic_effect(c: Candidate, rng: &mut impl Rng) -> Effects {
+pub fn realistic_effect(c: Effect, rng: &mut impl Rng) -> Effects {
     let sign = |rng: &mut dyn FnMut() -> bool| if rng() { 1.0 } else { -1.0 };
     let mut coin = || rng.random_bool(0.5);
     let s = [sign(&mut coin), sign(&mut coin)];
     let mut e = Effects::default();
     match c {
-        Candidate::Nominal => {}
-        Candidate::Backlash => {
+        Effect::Nominal => {}
+        Effect::Backlash => {
             e.backlash_um = [rng.random_range(5.0..20.0), rng.random_range(5.0..20.0)]
         }
-        Candidate::Latency => e.camera_latency_us = rng.random_range(30e3..100e3),
-        Candidate::Scale => {
+        Effect::Latency => e.camera_latency_us = rng.random_range(30e3..100e3),
+        Effect::Scale => {
             e.scale_error =
                 [s[0] * rng.random_range(0.01..0.03), s[1] * rng.random_range(0.01..0.03)]
         }
-        Candidate::Compliance => {
-            e.probe_compliance_um_per_weight = Some(rng.random_range(20.0..60.0))
-        }
-        Candidate::Adhesion => {
+        Effect::Compliance => e.probe_compliance_um_per_weight = Some(rng.random_range(20.0..60.0)),
+        Effect::Adhesion => {
             e.adhesion =
                 Some(Adhesion { pull_off_weight: rng.random_range(0.3..0.6), range_um: 2.0 })
         }
-        Candidate::FrictionPatch => {
+        Effect::FrictionPatch => {
             // A patch over the right or the lower part of the workspace.
             let (min_um, max_um) = if rng.random_bool(0.5) {
                 ([rng.random_range(1600.0..1900.0), -1e4], [1e4, 1e4])
@@ -83,10 +82,10 @@ pub fn realistic_effect(c: Candidate, rng: &mut impl Rng) -> Effects {
             e.friction_patch =
                 Some(FrictionPatch { min_um, max_um, mu_surface: rng.random_range(0.6..0.9) })
         }
-        Candidate::SpeedFriction => {
+        Effect::SpeedFriction => {
             e.speed_friction = Some(SpeedFriction { gain_per_mm_s: rng.random_range(1.5..3.0) })
         }
-        Candidate::SupportDrift => {
+        Effect::SupportDrift => {
             e.support_drift = Some(SupportDrift {
                 // Along the peg's long axis, so a 6-trial batch keeps every support inside
                 // the part (the nominal points sit within ~50 µm of its long edges).
@@ -197,6 +196,14 @@ struct PoseCsvRow {
     probe_tip_y_um: f64,
 }
 
+/// The last setpoint's time `t_s` in whole µs, truncated toward zero (the frames are those
+/// stamped at or before it). [`units::s_to_us_i64`] rounds half away from zero; for t ≥ 0
+/// truncation is one less exactly when that rounded up.
+fn end_us(t_s: f64) -> Result<i64, Error> {
+    let rounded = units::s_to_us_i64("last setpoint t_s", t_s)?;
+    Ok(if rounded as f64 > t_s * 1e6 { rounded - 1 } else { rounded })
+}
+
 /// Generates one trial into `dir` from the true model `truth` (effects included).
 pub fn write_trial(
     dir: &Path,
@@ -213,9 +220,11 @@ pub fn write_trial(
     nominal.effects = Effects::default();
     let (start, cmd) = open_plate_path(&nominal, strokes, &mut rng)?;
     let fx = &truth.effects;
-    let end_us = (cmd.last().map_or(0.0, |p| p.t_s) * 1e6) as i64;
+    let end_us = end_us(cmd.last().map_or(0.0, |p| p.t_s))?;
     let first = mesopush_sim::effects::scale_pose(&start, fx.scale_error, fx.scale_origin_um);
     let stamps: Vec<i64> = (0..).map(|k| k * FRAME_US).take_while(|t| *t <= end_us).collect();
+    // × 1e-6, not `units::us_i64_to_s` (÷ 1e6): the two differ in the last bit for about a
+    // third of the stamps, and the predicted poses written below were made with this one.
     let frames = stamps
         .iter()
         .map(|t| Measured { t_s: *t as f64 * 1e-6, pose: first, tip_um: None })
@@ -232,14 +241,14 @@ pub fn write_trial(
     let pred = predict_open_loop(&data, truth, &SimSettings::default())?;
     let mut meta = TrialMeta::new(id, "mesopush-synth", truth.part.clone());
     meta.probe_radius_um = truth.probe_radius_um;
-    meta.frame_period_us = Some(FRAME_US as u64);
+    meta.frame_period_us = Some(FRAME_US.unsigned_abs());
     meta.seeds.insert("synth".into(), seed);
     meta.world =
         Some(serde_json::to_value(truth).map_err(|e| Error::invalid("synth", e.to_string()))?);
     let mut w = TrialWriter::create(dir, meta)?;
     for p in &cmd {
         w.probe(&mesopush_trial::ProbeRow {
-            t_us: (p.t_s * 1e6).round() as i64,
+            t_us: units::s_to_us_i64("probe t_s", p.t_s)?,
             cmd_x_um: p.probe_um.x,
             cmd_y_um: p.probe_um.y,
             rep_x_um: None,
@@ -247,30 +256,64 @@ pub fn write_trial(
         })?;
     }
     let dir = w.finish(Outcome { state: TrialState::Done, reason: None, inserted: None })?;
-    let path = dir.join(mesopush_trial::files::POSE);
-    let mut csv = csv::Writer::from_path(&path)
-        .map_err(|e| Error::Parse { path: path.clone(), message: e.to_string() })?;
+    write_poses(&dir.join(mesopush_trial::files::POSE), &stamps, &pred, noise, &mut rng)
+}
+
+/// Writes pose.csv: the predicted pose and imaged tip at each stamp (µs) with tracker-like
+/// noise drawn from `rng`.
+fn write_poses(
+    path: &Path,
+    stamps: &[i64],
+    pred: &Prediction,
+    noise: &SynthNoise,
+    rng: &mut impl Rng,
+) -> Result<(), Error> {
+    let mut csv = csv::Writer::from_path(path).map_err(|e| Error::parse(path, e))?;
     for (k, t) in stamps.iter().enumerate() {
         let (p, tip) = (pred.poses[k], pred.tips_um[k]);
         csv.serialize(PoseCsvRow {
             t_us: *t,
-            x_um: p.x_um + noise.xy_um * normal(&mut rng),
-            y_um: p.y_um + noise.xy_um * normal(&mut rng),
-            theta_rad: p.theta_rad + noise.theta_rad * normal(&mut rng),
+            x_um: p.x_um + noise.xy_um * normal(rng),
+            y_um: p.y_um + noise.xy_um * normal(rng),
+            theta_rad: p.theta_rad + noise.theta_rad * normal(rng),
             frame_index: k as u64,
             residual_px: None,
-            probe_tip_x_um: tip.x + noise.tip_um * normal(&mut rng),
-            probe_tip_y_um: tip.y + noise.tip_um * normal(&mut rng),
+            probe_tip_x_um: tip.x + noise.tip_um * normal(rng),
+            probe_tip_y_um: tip.y + noise.tip_um * normal(rng),
         })
-        .map_err(|e| Error::Parse { path: path.clone(), message: e.to_string() })?;
+        .map_err(|e| Error::parse(path, e))?;
     }
-    csv.flush().map_err(|e| Error::io(&path, e))
+    csv.flush().map_err(|e| Error::io(path, e))
+}
+
+/// Writes a synthetic batch of `n_trials` trials with one undeclared `effect` (or none) into
+/// `out/trial-NNN`: the true model drawn from `seed` ([`batch_truth`]), trial `i`'s strokes
+/// and noise from `seed · 1000 + i`, [`SynthNoise::default`]. Returns the trial directories.
+pub fn write_batch(
+    out: &Path,
+    effect: Effect,
+    n_trials: usize,
+    strokes: usize,
+    seed: u64,
+) -> Result<Vec<PathBuf>, Error> {
+    use rand::SeedableRng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let truth = batch_truth(effect, n_trials, &mut rng);
+    (0..n_trials)
+        .map(|i| {
+            let id = format!("trial-{i:03}");
+            let dir = out.join(&id);
+            let noise = SynthNoise::default();
+            write_trial(&dir, &id, i, &truth, strokes, &noise, seed * 1000 + i as u64)?;
+            Ok(dir)
+        })
+        .collect()
 }
 
 /// The true model of an `n_trials` batch with one library effect at a realistic size: a
 /// drawn support drift is halved until the support stays physical (inside the part, holding
 /// its weight) over the whole batch, as a real one must.
-pub fn batch_truth(effect: Candidate, n_trials: usize, rng: &mut impl Rng) -> Model {
+pub fn batch_truth(effect: Effect, n_trials: usize, rng: &mut impl Rng) -> Model {
     let mut truth = true_nominal(rng);
     truth.effects = realistic_effect(effect, rng);
     let last = n_trials.saturating_sub(1);
@@ -308,7 +351,7 @@ mod tests {
     fn a_drawn_support_drift_stays_physical_over_the_batch() {
         for seed in 0..200 {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-            let truth = batch_truth(Candidate::SupportDrift, 6, &mut rng);
+            let truth = batch_truth(Effect::SupportDrift, 6, &mut rng);
             assert!(truth.effects.support_drift.is_some(), "seed {seed}");
             assert!(super::super::predict::valid_over_batch(&truth, 5), "seed {seed}: {truth:?}");
         }

@@ -8,6 +8,7 @@
 use super::data::{Measured, TrialData};
 use super::predict::{Prediction, probe_at};
 use mesopush_core::geom::Vec2;
+use mesopush_core::stats;
 use mesopush_sim::contact::closest_on_polygon;
 
 /// Fewest free frames with an imaged tip that estimate a trial's tip registration offset.
@@ -90,12 +91,11 @@ pub fn tip_residuals(data: &TrialData, pred: &Prediction) -> Vec<Option<[f64; 2]
         .collect()
 }
 
-/// The median of `v` when it has at least [`MIN_REGISTRATION_FRAMES`] values.
+/// The median of `v` ([`mesopush_core::stats::median`]: the mean of the middle two for an
+/// even count) when it has at least [`MIN_REGISTRATION_FRAMES`] values.
 fn median(mut v: Vec<f64>) -> Option<f64> {
     if v.len() < MIN_REGISTRATION_FRAMES {
         return None;
     }
-    v.sort_by(f64::total_cmp);
-    let k = v.len() / 2;
-    Some(if v.len() % 2 == 1 { v[k] } else { 0.5 * (v[k - 1] + v[k]) })
+    stats::median(&mut v)
 }

@@ -3,11 +3,11 @@
 //! nothing on clean data. CI-sized: few short trials, small fit budgets.
 
 use mesopush_diagnose::synth::{SynthNoise, realistic_effect, true_nominal, write_trial};
-use mesopush_diagnose::{Candidate, Options, TrialData, Verdict, diagnose};
+use mesopush_diagnose::{Effect, Options, TrialData, Verdict, diagnose};
 use rand::SeedableRng;
 
 fn batch(
-    effect: Candidate,
+    effect: Effect,
     seed: u64,
     n: usize,
     strokes: usize,
@@ -46,12 +46,12 @@ fn diagnose_split(trials: Vec<TrialData>, opts: &Options) -> mesopush_diagnose::
     diagnose(&train, &test, opts, &|_| {}).unwrap()
 }
 
-fn run(effect: Candidate, seed: u64) -> mesopush_diagnose::Diagnosis {
+fn run(effect: Effect, seed: u64) -> mesopush_diagnose::Diagnosis {
     let (_d, trials) = batch(effect, seed, 6, 3);
     let opts = Options {
         nominal_evals: 300,
         effect_evals: 150,
-        candidates: vec![Candidate::Backlash, Candidate::Latency, Candidate::Scale],
+        candidates: vec![Effect::Backlash, Effect::Latency, Effect::Scale],
         ..Options::default()
     };
     let d = diagnose_split(trials, &opts);
@@ -67,9 +67,9 @@ fn run(effect: Candidate, seed: u64) -> mesopush_diagnose::Diagnosis {
 
 #[test]
 fn latency_is_named_and_clean_data_gives_none() {
-    let d = run(Candidate::Latency, 7);
-    assert_eq!(d.effect, Some(Candidate::Latency));
-    let d = run(Candidate::Nominal, 8);
+    let d = run(Effect::Latency, 7);
+    assert_eq!(d.effect, Some(Effect::Latency));
+    let d = run(Effect::Nominal, 8);
     assert_eq!(d.verdict, Verdict::None);
 }
 
@@ -115,7 +115,7 @@ fn a_slippery_patch_on_the_other_side_is_named() {
     let opts = Options {
         nominal_evals: 150,
         effect_evals: 80,
-        candidates: vec![Candidate::FrictionPatch, Candidate::SupportDrift],
+        candidates: vec![Effect::FrictionPatch, Effect::SupportDrift],
         ..Options::default()
     };
     let d = diagnose_split(trials, &opts);
@@ -123,7 +123,7 @@ fn a_slippery_patch_on_the_other_side_is_named() {
     for s in &d.scores {
         eprintln!("seed {seed}: {:?} held-out {:.1} {:?}", s.candidate, s.heldout_norm, s.params);
     }
-    assert_eq!(d.effect, Some(Candidate::FrictionPatch), "seed {seed}: {:?}", d.verdict);
+    assert_eq!(d.effect, Some(Effect::FrictionPatch), "seed {seed}: {:?}", d.verdict);
     assert!(after.xy_um2 < 0.3 * before.xy_um2, "seed {seed}: {before:?} -> {after:?}");
 }
 
@@ -137,12 +137,12 @@ fn a_small_support_drift_survives_the_all_trial_refit() {
     let n = 6;
     let dir = tempfile::tempdir().unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let truth = mesopush_diagnose::synth::batch_truth(Candidate::SupportDrift, n, &mut rng);
+    let truth = mesopush_diagnose::synth::batch_truth(Effect::SupportDrift, n, &mut rng);
     let trials = write_batch(dir.path(), &truth, n, 3, |i| seed * 1000 + i as u64);
     let opts = Options {
         nominal_evals: 150,
         effect_evals: 80,
-        candidates: vec![Candidate::SupportDrift, Candidate::Scale],
+        candidates: vec![Effect::SupportDrift, Effect::Scale],
         ..Options::default()
     };
     let d = diagnose_split(trials, &opts);
@@ -152,5 +152,5 @@ fn a_small_support_drift_survives_the_all_trial_refit() {
     );
     let all = d.nominal_all_norm.expect("held-out error above the floor band");
     assert!(all <= d.floor_band, "seed {seed}: the nominal refit on all trials is in the band");
-    assert_eq!(d.effect, Some(Candidate::SupportDrift), "seed {seed}: {:?}", d.verdict);
+    assert_eq!(d.effect, Some(Effect::SupportDrift), "seed {seed}: {:?}", d.verdict);
 }

@@ -5,7 +5,7 @@
 //! the synthetic generator diagnosis was tuned on. Every library candidate is tried.
 
 use mesopush_diagnose::rig_batch::write_rig_batch;
-use mesopush_diagnose::{Candidate, Diagnosis, Options, TrialData, Verdict, diagnose};
+use mesopush_diagnose::{Diagnosis, Effect, Options, TrialData, Verdict, diagnose};
 use mesopush_rig::WorldFile;
 
 /// The default world filming every `period_us` (the tracker runs on every frame), with
@@ -44,7 +44,7 @@ fn run_in(world: &WorldFile, effects: &str, seed: u64) -> Diagnosis {
 fn latency_in_a_full_loop_batch_is_named_blind_and_the_clean_batch_gives_none() {
     let seed = 5;
     let d = run("camera_latency_us = 60000.0", seed);
-    assert_eq!(d.effect, Some(Candidate::Latency), "seed {seed}");
+    assert_eq!(d.effect, Some(Effect::Latency), "seed {seed}");
     let (before, after) = (&d.scores[0].heldout, &d.best);
     let after = d.scores.iter().find(|s| s.candidate == after.candidate).unwrap().heldout;
     assert!(after.xy_um2 < 0.5 * before.xy_um2, "seed {seed}: {before:?} → {after:?}");
@@ -64,7 +64,7 @@ fn a_full_loop_backlash_batch_is_not_misattributed() {
     let d = run("backlash_um = [12.0, 12.0]", seed);
     assert_ne!(d.verdict, Verdict::None, "seed {seed}: a 12 µm backlash is not at the floor");
     assert!(
-        d.verdict == Verdict::Unexplained || d.effect == Some(Candidate::Backlash),
+        d.verdict == Verdict::Unexplained || d.effect == Some(Effect::Backlash),
         "seed {seed}: {:?} {:?}",
         d.verdict,
         d.effect

@@ -2,22 +2,24 @@
 //! and beyond it: a joint optimiser and the set of supports consistent with the data.
 //!
 //! Pipeline ([`identify`]): load trial logs ([`data`]) → sweep μ × random supports
-//! ([`mod@sweep`]) → optionally refine jointly ([`mod@optimize`]) → the consistent set
-//! ([`consistent`]) → the report ([`report`]: Table I, cross-trial matrix, chosen model).
-//! Only the trial-log format is read, so any convex part at any scale and speed is identified
-//! the same way. [`synth`] writes simulated trials with known truth for tests and demos;
-//! [`figure`] draws the paper's Fig. 5 from the identified model.
+//! ([`mod@sweep`], [`score`], [`sample`]; split into processes by [`shard`]) → optionally
+//! refine jointly ([`joint`]) → the consistent set ([`consistent`]) → the report
+//! ([`report`]: Table I, cross-trial matrix, chosen model). Only the trial-log format is
+//! read, so any convex part at any scale and speed is identified the same way. [`synth`]
+//! writes simulated trials with known truth for tests and demos; [`figure`] draws the paper's
+//! Fig. 5 from the identified model. [`optim`] holds the minimisers (Nelder–Mead, evolution
+//! strategy, Levenberg–Marquardt) the joint fit and `mesopush-diagnose` share.
 //!
-//! May depend on: `mesopush-core`, `mesopush-sim`, `mesopush-trial` (what it reads) and
-//! `mesopush-plot`. Never on planning, the rig, diagnosis or batches.
+//! May depend on: `mesopush-core`, `mesopush-sim`, `mesopush-trial` (what it reads),
+//! `mesopush-plot` and `mesopush-protocol` (its `units`, for the trial log's µs). Never on
+//! planning, the rig, diagnosis or batches.
 
 pub mod consistent;
 pub mod data;
 pub mod error;
-pub mod es;
 pub mod figure;
-pub mod optimize;
-pub mod polish;
+pub mod joint;
+pub mod optim;
 pub mod report;
 pub mod sample;
 pub mod score;
@@ -28,7 +30,7 @@ pub mod synth;
 pub use consistent::{ConsistentSet, consistent_set};
 pub use data::IdentTrial;
 pub use error::Error;
-pub use optimize::{OptimizeSettings, Optimized, optimize};
+pub use joint::{OptimizeSettings, Optimized, optimize};
 pub use report::Report;
 pub use score::{Candidate, Score, ScoreSettings};
 pub use sweep::{Sweep, SweepSettings, sweep};
@@ -74,7 +76,7 @@ pub fn identify(
     identify_from(trials, sw, settings, rng, ticks)
 }
 
-/// [`identify`] from a sweep already made (e.g. merged from shards, `ident::shard`); `rng`
+/// [`identify`] from a sweep already made (e.g. merged from shards, [`shard`]); `rng`
 /// must be where [`identify`]'s is after the sweep (past `sweep::grid`'s draws).
 pub fn identify_from(
     trials: &[IdentTrial],

@@ -6,7 +6,7 @@
 use super::IdentifySettings;
 use super::consistent::{ConsistentSet, consistent_set};
 use super::data::IdentTrial;
-use super::optimize::Optimized;
+use super::joint::Optimized;
 use super::score::{Candidate, Score, score};
 use super::sweep::Sweep;
 use crate::Error;

@@ -5,21 +5,24 @@
 //! from the seed alone, so shard `I/N` scores the candidates `k ≡ I (mod N)` exactly as the
 //! unsplit sweep does; scores travel as f64 bit patterns (∞ marks a failed simulation).
 //!
-//! A shard file carries the run's key (trial ids, seed, sweep and scoring settings); the
-//! merge refuses files of another run, a shard count that disagrees, a shard given twice or
-//! missing, and a candidate missing, duplicated or in the wrong shard — naming the file.
+//! The file is the workspace's one shard shape, [`ShardFile`], keyed by the run (trial ids,
+//! seed, sweep and scoring settings, candidate count) with one item per candidate: its score
+//! on each trial. [`mesopush_core::shard::merge`] refuses a shard count that disagrees, a shard
+//! given twice or missing, and a candidate missing, duplicated or in the wrong shard; the
+//! files of another run and malformed items are refused here — each naming the file.
 
+use super::IdentifySettings;
+use super::data::IdentTrial;
 use super::score::Score;
-use super::sweep::Sweep;
+use super::sweep::{Sweep, grid, score_jobs};
 use crate::Error;
-use mesopush_core::fsx::{read_json, write_json_atomic};
-use mesopush_core::shard::Shard;
-use mesopush_sim::SupportDistribution;
+use mesopush_core::shard::{Shard, ShardFile, merge};
+use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// Format version of [`SweepShard`].
-pub const SWEEP_SHARD_FORMAT: u32 = 1;
+/// Format version of [`SweepShard`] (2: the workspace's [`ShardFile`] layout).
+pub const SWEEP_SHARD_FORMAT: u32 = 2;
 
 /// What makes two shards parts of the same sweep.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -40,6 +43,31 @@ pub struct SweepKey {
     pub step_um: f64,
     /// Part–wall friction.
     pub mu_wall: f64,
+    /// Candidates of the whole sweep (μ values × supports).
+    pub candidates: u64,
+}
+
+impl SweepKey {
+    /// The key of the sweep of `trials` with `settings`, its supports drawn from `seed`.
+    pub fn new(
+        trials: &[IdentTrial],
+        seed: u64,
+        settings: &IdentifySettings,
+    ) -> Result<Self, Error> {
+        let s = &settings.sweep;
+        let candidates = (s.mus()?.len() * s.n_supports) as u64;
+        Ok(Self {
+            trials: trials.iter().map(|t| t.id.clone()).collect(),
+            seed,
+            mu_step: s.mu_step,
+            mu_max: s.mu_max,
+            n_supports: s.n_supports,
+            mu_surface: s.mu_surface,
+            step_um: settings.score.sim.step_um,
+            mu_wall: settings.score.mu_wall,
+            candidates,
+        })
+    }
 }
 
 /// A [`Score`] with its floats as bit patterns (exact, and ∞ survives JSON).
@@ -76,104 +104,91 @@ impl From<ExactScore> for Score {
     }
 }
 
-/// One shard of a sweep, as written by `mesopush identify --shard I/N`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SweepShard {
-    /// [`SWEEP_SHARD_FORMAT`].
-    pub format: u32,
-    /// The sweep this shard belongs to.
-    pub key: SweepKey,
-    /// Which shard.
-    pub shard: Shard,
-    /// Candidates of the whole sweep (μ values × supports).
-    pub candidates: u64,
-    /// (candidate k, its score on each trial in key order), k ascending.
-    pub columns: Vec<(u64, Vec<ExactScore>)>,
+/// One shard of a sweep, as `mesopush identify shard` writes it: items are (candidate k,
+/// its score on each trial in key order), k ascending.
+pub type SweepShard = ShardFile<SweepKey, Vec<ExactScore>>;
+
+/// The candidates of `shard` out of `candidates`.
+pub fn owned(shard: Shard, candidates: usize) -> Vec<usize> {
+    (0..candidates).filter(|&k| shard.owns(k as u64)).collect()
 }
 
-impl SweepShard {
-    /// The shard's candidates out of `candidates`.
-    pub fn owned(shard: Shard, candidates: usize) -> Vec<usize> {
-        (0..candidates).filter(|&k| shard.owns(k as u64)).collect()
-    }
-
-    /// Packs scores from `sweep::score_jobs` over `ks` (trial-major) into columns.
-    pub fn new(
-        key: SweepKey,
-        shard: Shard,
-        candidates: usize,
-        ks: &[usize],
-        flat: &[Score],
-    ) -> Self {
-        let n_trials = key.trials.len();
-        debug_assert_eq!(flat.len(), n_trials * ks.len());
-        let columns = ks
-            .iter()
-            .enumerate()
-            .map(|(j, &k)| {
-                let col = (0..n_trials).map(|t| flat[t * ks.len() + j].into()).collect();
-                (k as u64, col)
-            })
-            .collect();
-        Self { format: SWEEP_SHARD_FORMAT, key, shard, candidates: candidates as u64, columns }
-    }
-
-    /// Writes the file (a synced temporary then a rename: a killed run leaves no half file).
-    pub fn save(&self, path: &Path) -> Result<(), Error> {
-        Ok(write_json_atomic(path, self)?)
-    }
-
-    /// Reads a file written by [`SweepShard::save`].
-    pub fn load(path: &Path) -> Result<Self, Error> {
-        let f: Self = read_json(path)?;
-        if f.format != SWEEP_SHARD_FORMAT {
-            let msg =
-                format!("sweep shard format {} (this build reads {SWEEP_SHARD_FORMAT})", f.format);
-            return Err(Error::Parse { path: path.into(), message: msg });
-        }
-        Ok(f)
-    }
+/// Scores `shard`'s candidates of the sweep of `trials` (`rng` seeded from `seed`, as for
+/// [`crate::identify`]); `tick` is called once per simulation.
+pub fn score_shard(
+    trials: &[IdentTrial],
+    settings: &IdentifySettings,
+    seed: u64,
+    shard: Shard,
+    rng: &mut impl Rng,
+    tick: &(dyn Fn() + Sync),
+) -> Result<SweepShard, Error> {
+    let (mus, supports) = grid(trials, &settings.sweep, rng)?;
+    let n = mus.len() * supports.len();
+    let ks = owned(shard, n);
+    let flat = score_jobs(trials, &mus, &supports, &settings.score, &ks, tick);
+    let n_trials = trials.len();
+    let items = ks
+        .iter()
+        .enumerate()
+        .map(|(j, &k)| {
+            let col = (0..n_trials).map(|t| flat[t * ks.len() + j].into()).collect();
+            (k as u64, col)
+        })
+        .collect();
+    let key = SweepKey::new(trials, seed, settings)?;
+    Ok(ShardFile { format: SWEEP_SHARD_FORMAT, key, shard, items })
 }
 
-/// Assembles the sweep of `key` (its grid `mus` × `supports`, re-drawn from the seed) from
-/// its shards.
-pub fn merge(
-    files: &[(PathBuf, SweepShard)],
-    key: &SweepKey,
-    mus: Vec<f64>,
-    supports: Vec<SupportDistribution>,
+/// Writes a shard file (a synced temporary then a rename: a killed run leaves no half file).
+pub fn save(file: &SweepShard, path: &Path) -> Result<(), Error> {
+    Ok(file.write(path)?)
+}
+
+/// Reads a shard file written by [`save`], refusing another format version.
+pub fn load(path: &Path) -> Result<SweepShard, Error> {
+    Ok(SweepShard::read(path, SWEEP_SHARD_FORMAT)?)
+}
+
+/// The sweep of `trials` with `settings` assembled from the shard files at `paths` instead of
+/// run; `rng` (seeded from `seed`) re-draws the grid and is left where the unsplit sweep
+/// leaves it, so [`crate::identify_from`] continues exactly as [`crate::identify`] would.
+pub fn merged_sweep(
+    trials: &[IdentTrial],
+    settings: &IdentifySettings,
+    seed: u64,
+    rng: &mut impl Rng,
+    paths: &[PathBuf],
 ) -> Result<Sweep, Error> {
-    let bad = |p: &Path, m: String| Error::invalid("sweep merge", format!("{}: {m}", p.display()));
-    if files.is_empty() {
+    let (mus, supports) = grid(trials, &settings.sweep, rng)?;
+    let key = SweepKey::new(trials, seed, settings)?;
+    if paths.is_empty() {
         return Err(Error::invalid("sweep merge", "no sweep shard files given"));
     }
-    let n = mus.len() * supports.len();
-    for (p, f) in files {
-        if &f.key != key || f.candidates != n as u64 {
-            return Err(bad(p, "a different sweep (trials, seed or settings differ)".into()));
-        }
+    let mut files = Vec::with_capacity(paths.len());
+    for p in paths {
+        let f = load(p)?;
+        check(p, &f, &key)?;
+        files.push((p.clone(), f));
     }
-    Shard::check_set("sweep merge", files.iter().map(|(p, f)| (p.as_path(), f.shard)))?;
-    let n_trials = key.trials.len();
-    let mut scores: Vec<Vec<Option<Score>>> = vec![vec![None; n]; n_trials];
-    for (p, f) in files {
-        for (k, col) in &f.columns {
-            let ok = (*k as usize) < n && f.shard.owns(*k) && col.len() == n_trials;
-            if !ok || scores[0][*k as usize].is_some() {
-                return Err(bad(
-                    p,
-                    format!("candidate {k} is not this shard's, malformed or given twice"),
-                ));
-            }
-            for (row, s) in scores.iter_mut().zip(col) {
-                row[*k as usize] = Some((*s).into());
-            }
-        }
-    }
-    let scores: Option<Vec<Vec<Score>>> =
-        scores.into_iter().map(|row| row.into_iter().collect()).collect();
-    let scores = scores.ok_or_else(|| {
-        Error::invalid("sweep merge", "some candidates are missing from their shard's file")
-    })?;
+    let (_, columns) = merge("sweep merge", files, |k| k.candidates)?;
+    let scores =
+        (0..trials.len()).map(|t| columns.iter().map(|col| col[t].into()).collect()).collect();
     Ok(Sweep { mus, supports, scores })
+}
+
+/// Refuses a shard of another sweep or with a malformed item, naming the file.
+fn check(path: &Path, f: &SweepShard, key: &SweepKey) -> Result<(), Error> {
+    let bad = |m: String| Error::invalid("sweep merge", format!("{}: {m}", path.display()));
+    if &f.key != key {
+        return Err(bad("a different sweep (trials, seed or settings differ)".into()));
+    }
+    match f.items.iter().find(|(_, col)| col.len() != key.trials.len()) {
+        Some((k, col)) => Err(bad(format!(
+            "candidate {k} has {} scores for {} trials",
+            col.len(),
+            key.trials.len()
+        ))),
+        None => Ok(()),
+    }
 }

@@ -1,16 +1,19 @@
 //! Synthetic identification trials: unconstrained pushes of any convex part, simulated with a
 //! known true model and written as ordinary trial logs (probe.csv at the setpoint rate,
 //! pose.csv at the camera rate with Gaussian tracking noise). Tests and the demo dataset
-//! (`mesopush identify --synthesize DIR`) use them; identification reads them like any other
-//! trial, and the truth sits in `trial.json`'s `world` field, which identification never reads.
+//! ([`write_demo`], `mesopush identify synth DIR`) use them; identification reads them like
+//! any other trial, and the truth sits in `trial.json`'s `world` field, which identification
+//! never reads. Times go to the log through `mesopush_protocol::units` (rounded to the µs).
 
 use super::data::open_plate;
+use super::optim::es::normal;
 use super::score::pose_at;
 use crate::Error;
 use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
+use mesopush_protocol::units;
 use mesopush_sim::{Model, ProbePoint, SimSettings, Simulator, follow_path};
 use mesopush_trial::{Outcome, PoseRow, ProbeRow, TrialMeta, TrialState, TrialWriter};
-use rand::{Rng, RngExt};
+use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -116,7 +119,9 @@ fn approach(
     Ok((pose.transform_point(&start_b), pose.rotate(&dir_b)))
 }
 
-/// The probe waypoints of one push (time from 0, one every setpoint period).
+/// The probe waypoints of one push (time from 0, one every setpoint period; times as
+/// `t_us × 1e-6`, which the recorded trials were simulated with — `units::us_i64_to_s`
+/// divides and differs in the last bit).
 fn waypoints(spec: &SynthSpec, pose: &Pose, push: &PushSpec) -> Result<Vec<ProbePoint>, Error> {
     let gap = spec.clearance_um + spec.model.probe_radius_um;
     let (mut p, mut dir) = approach(spec.model.part.polygon(), pose, push, gap)?;
@@ -137,11 +142,31 @@ fn waypoints(spec: &SynthSpec, pose: &Pose, push: &PushSpec) -> Result<Vec<Probe
     Ok(out)
 }
 
-/// A standard normal draw (Box–Muller).
-pub fn normal(rng: &mut impl Rng) -> f64 {
-    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
-    let u2: f64 = rng.random();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+/// The camera frame period as a step over µs stamps; an error unless both periods are > 0.
+fn frame_step(spec: &SynthSpec) -> Result<usize, Error> {
+    let (setpoint, frame) = (spec.setpoint_period_us, spec.frame_period_us);
+    usize::try_from(frame).ok().filter(|&f| f > 0 && setpoint > 0).ok_or_else(|| {
+        Error::invalid(
+            "synthetic trial periods",
+            format!("setpoint {setpoint} us, frame {frame} us: both must be > 0"),
+        )
+    })
+}
+
+/// The metadata of trial `k`: the truth in `world`, which identification never reads.
+fn meta(spec: &SynthSpec, k: usize, push: &PushSpec, jams: usize) -> TrialMeta {
+    let mut meta = TrialMeta::new(format!("synth-{k:02}"), "ident-synth", spec.model.part.clone());
+    meta.probe_radius_um = spec.model.probe_radius_um;
+    meta.frame_period_us = Some(spec.frame_period_us.unsigned_abs());
+    meta.world = Some(serde_json::json!({
+        "generator": "mesopush ident::synth",
+        "true_model": spec.model,
+        "push": push,
+        "noise_xy_um": spec.noise_xy_um,
+        "noise_theta_rad": spec.noise_theta_rad,
+        "jams": jams,
+    }));
+    meta
 }
 
 /// Simulates and writes trial `k` of `spec` into `dir` (which must not hold a trial).
@@ -151,31 +176,25 @@ pub fn write_trial(
     dir: &Path,
     rng: &mut impl Rng,
 ) -> Result<PathBuf, Error> {
-    let push = &spec.pushes[k];
+    let push = spec.pushes.get(k).ok_or_else(|| {
+        Error::invalid("trial", format!("{k}: the spec has {} pushes", spec.pushes.len()))
+    })?;
+    let frame_step = frame_step(spec)?;
     let (dx, dy, dth) = push.start_offset;
     let start = Pose::new(spec.start.x_um + dx, spec.start.y_um + dy, spec.start.theta_rad + dth);
     let path = waypoints(spec, &start, push)?;
     let mut sim = Simulator::new(spec.model.clone(), open_plate(), SimSettings::default())?;
     let replay = follow_path(&mut sim, start, &path)?;
-    let mut meta = TrialMeta::new(format!("synth-{k:02}"), "ident-synth", spec.model.part.clone());
-    meta.probe_radius_um = spec.model.probe_radius_um;
-    meta.frame_period_us = Some(spec.frame_period_us as u64);
-    meta.world = Some(serde_json::json!({
-        "generator": "mesopush ident::synth",
-        "true_model": spec.model,
-        "push": push,
-        "noise_xy_um": spec.noise_xy_um,
-        "noise_theta_rad": spec.noise_theta_rad,
-        "jams": replay.jams,
-    }));
-    let mut w = TrialWriter::create(dir, meta)?;
+    let mut w = TrialWriter::create(dir, meta(spec, k, push, replay.jams))?;
     for p in &path {
-        let t_us = (p.t_s * 1e6).round() as i64;
+        let t_us = units::s_to_us_i64("probe t_s", p.t_s)?;
         let (x, y) = (p.probe_um.x, p.probe_um.y);
         w.probe(&ProbeRow { t_us, cmd_x_um: x, cmd_y_um: y, rep_x_um: None, rep_y_um: None })?;
     }
-    let end_us = (path[path.len() - 1].t_s * 1e6).round() as i64;
-    for (i, t_us) in (0..=end_us).step_by(spec.frame_period_us as usize).enumerate() {
+    let end_us = units::s_to_us_i64("last setpoint t_s", path[path.len() - 1].t_s)?;
+    for (i, t_us) in (0..=end_us).step_by(frame_step).enumerate() {
+        // × 1e-6, not `units::us_i64_to_s` (÷ 1e6): they differ in the last bit for about a
+        // third of the stamps, and the recorded poses were sampled with this one.
         let truth = pose_at(&replay.samples, t_us as f64 * 1e-6);
         w.pose(&PoseRow {
             t_us,
@@ -202,11 +221,21 @@ pub fn write_trials(
         .collect()
 }
 
-/// The demo's true model: the paper's peg with an off-centre support and μ = 0.6.
+/// The true support of the peg demo (relative to the COM, µm, before scaling).
+pub const PEG_SUPPORT_UM: [[f64; 2]; 3] = [[-520.0, 300.0], [-260.0, -380.0], [560.0, 90.0]];
+/// The true support of the hexagon demo (relative to the COM, µm, before scaling).
+pub const HEXAGON_SUPPORT_UM: [[f64; 2]; 3] = [[-300.0, 250.0], [-150.0, -350.0], [420.0, 60.0]];
+/// Circumradius of the demo hexagon before scaling, µm.
+pub const HEXAGON_RADIUS_UM: f64 = 650.0;
+/// Probe travel of each demo push before scaling, µm.
+pub const DEMO_TRAVEL_UM: f64 = 900.0;
+
+/// The demo's true model: the paper's peg with an off-centre support ([`PEG_SUPPORT_UM`]),
+/// μ = 0.6 and surface friction 0.3.
 pub fn demo_truth() -> Model {
     Model {
         support: mesopush_sim::SupportDistribution {
-            points_um: [[-520.0, 300.0], [-260.0, -380.0], [560.0, 90.0]],
+            points_um: PEG_SUPPORT_UM,
             mu_surface: [0.3; 3],
         },
         mu_probe: 0.6,
@@ -223,4 +252,92 @@ pub fn hexagon(r_um: f64) -> mesopush_sim::Part {
         })
         .collect();
     mesopush_sim::Part::from_polygon(&ConvexPolygon::new(v).expect("regular hexagon"))
+}
+
+/// The part of the demo dataset.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DemoPart {
+    /// The paper's peg (1615 × 985 µm), support [`PEG_SUPPORT_UM`].
+    Peg,
+    /// A regular hexagon of circumradius [`HEXAGON_RADIUS_UM`], support
+    /// [`HEXAGON_SUPPORT_UM`].
+    Hexagon,
+}
+
+impl std::str::FromStr for DemoPart {
+    type Err = Error;
+
+    /// `peg` or `hexagon`.
+    fn from_str(s: &str) -> Result<Self, Error> {
+        match s {
+            "peg" => Ok(DemoPart::Peg),
+            "hexagon" => Ok(DemoPart::Hexagon),
+            other => Err(Error::invalid("demo part", format!("{other:?}: use peg or hexagon"))),
+        }
+    }
+}
+
+/// The demo dataset: six paper-like pushes ([`paper_like_pushes`]) of a part with known
+/// truth (μ 0.6, an off-centre support), written as ordinary trial logs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DemoSettings {
+    /// The part. Default [`DemoPart::Peg`].
+    pub part: DemoPart,
+    /// Scale of the part, its support and the push lengths ([`DEMO_TRAVEL_UM`]). Default 1.
+    pub scale: f64,
+    /// Probe speed, µm/s. Default 200.
+    pub speed_um_s: f64,
+}
+
+impl Default for DemoSettings {
+    fn default() -> Self {
+        Self { part: DemoPart::Peg, scale: 1.0, speed_um_s: 200.0 }
+    }
+}
+
+/// A demo dataset as written.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Demo {
+    /// The true model.
+    pub truth: Model,
+    /// The trial directories.
+    pub trials: Vec<PathBuf>,
+    /// Where the true model was written (`true_model.toml` beside the trials).
+    pub truth_file: PathBuf,
+}
+
+/// The demo's true model for `settings`: the part and its support scaled.
+pub fn demo_model(settings: &DemoSettings) -> Result<Model, Error> {
+    let s = settings.scale;
+    if !(s.is_finite() && s > 0.0) {
+        return Err(Error::invalid("demo scale", format!("{s}: must be finite and > 0")));
+    }
+    let (part, support) = match settings.part {
+        DemoPart::Peg => (demo_truth().part, PEG_SUPPORT_UM),
+        DemoPart::Hexagon => (hexagon(HEXAGON_RADIUS_UM), HEXAGON_SUPPORT_UM),
+    };
+    let verts: Vec<Vec2> = part.polygon().vertices().iter().map(|v| v * s).collect();
+    let polygon = ConvexPolygon::new(verts)
+        .map_err(|e| Error::invalid("demo part", format!("scaled by {s}: {e}")))?;
+    let mut truth = demo_truth();
+    truth.part = mesopush_sim::Part::from_polygon(&polygon);
+    truth.support.points_um = support.map(|[x, y]| [x * s, y * s]);
+    truth.validate().map_err(|e| Error::invalid("synthetic truth", e.to_string()))?;
+    Ok(truth)
+}
+
+/// Writes the demo dataset of `settings` into `dir` (`synth-NN/` trials and
+/// `true_model.toml`), the tracking noise drawn from `rng`.
+pub fn write_demo(settings: &DemoSettings, dir: &Path, rng: &mut impl Rng) -> Result<Demo, Error> {
+    let v = settings.speed_um_s;
+    if !(v.is_finite() && v > 0.0) {
+        return Err(Error::invalid("demo speed", format!("{v} um/s: must be finite and > 0")));
+    }
+    let truth = demo_model(settings)?;
+    let mut spec = SynthSpec::paper_like(truth.clone(), DEMO_TRAVEL_UM * settings.scale);
+    spec.speed_um_s = v;
+    let trials = write_trials(&spec, dir, rng)?;
+    let truth_file = dir.join("true_model.toml");
+    truth.save(&truth_file)?;
+    Ok(Demo { truth, trials, truth_file })
 }

@@ -1,23 +1,66 @@
-//! `mesopush diagnose`: find what the model lacks in measured trials (held-out residuals,
-//! their structure, attribution to a library effect), report before/after errors and write
-//! the extended model TOML. `--synth` makes a synthetic batch with one undeclared effect;
-//! `--confusion` runs blind diagnoses over synthetic batches of every effect.
+//! `mesopush diagnose run|synth|rig|confusion`: find what the model lacks in measured trials
+//! (held-out residuals, their structure, attribution to a library effect), report
+//! before/after errors and write the extended model TOML; make synthetic or whole-loop
+//! batches with one undeclared effect; run the confusion-matrix experiment.
 
-use anyhow::{Context, Result, bail};
-use clap::Args;
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use mesopush_diagnose::data::load_split;
 use mesopush_diagnose::report;
 use mesopush_diagnose::rig_batch::write_rig_batch;
-use mesopush_diagnose::synth::{SynthNoise, batch_truth, write_trial};
-use mesopush_diagnose::{Candidate, Diagnosis, Options, TrialData, diagnose};
-use rand::SeedableRng;
+use mesopush_diagnose::synth::write_batch;
+use mesopush_diagnose::{Diagnosis, Effect, Options, diagnose};
 use std::path::{Path, PathBuf};
 
 /// Diagnose trials: residuals, their structure, the missing effect, before/after errors.
 #[derive(Debug, Args)]
 pub(crate) struct DiagnoseArgs {
+    #[command(subcommand)]
+    mode: Mode,
+}
+
+#[derive(Debug, Subcommand)]
+enum Mode {
+    /// Diagnose trial directories: held-out residuals, their structure, the missing effect,
+    /// before/after errors; writes report.md, summary.json, residuals.png and the models.
+    Run(RunArgs),
+    /// Make a synthetic batch with one undeclared library effect (or none).
+    Synth(SynthArgs),
+    /// Make a batch through the whole loop (executor, firmware simulator, camera, tracker;
+    /// simulated time) in a world file whose `[effects]` the host is never told.
+    Rig(RigArgs),
+    /// Blind diagnoses of synthetic batches of every effect and clean controls: the
+    /// confusion matrix and before/after errors.
+    Confusion(super::cmd_diagnose_confusion::ConfusionArgs),
+}
+
+/// The fit budgets of a diagnosis.
+#[derive(Debug, Args)]
+pub(crate) struct Budgets {
+    /// Evaluations of the nominal fit.
+    #[arg(long, default_value_t = 300)]
+    nominal_evals: usize,
+    /// Evaluations per effect fit.
+    #[arg(long, default_value_t = 150)]
+    effect_evals: usize,
+}
+
+impl Budgets {
+    pub(crate) fn options(&self) -> Options {
+        Options {
+            nominal_evals: self.nominal_evals,
+            effect_evals: self.effect_evals,
+            ..Options::default()
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
     /// Trial directories (trial.json, probe.csv, pose.csv); even positions train, odd ones
     /// are held out.
+    #[arg(required = true)]
     trials: Vec<PathBuf>,
     /// Output directory (report.md, summary.json, residuals.png, extended_model.toml).
     #[arg(long, default_value = "runs/diagnose")]
@@ -25,84 +68,53 @@ pub(crate) struct DiagnoseArgs {
     /// Print the JSON summary instead of text.
     #[arg(long)]
     json: bool,
-    /// Simplex evaluations of the nominal fit.
-    #[arg(long, default_value_t = 300)]
-    nominal_evals: usize,
-    /// Evaluations per effect fit.
-    #[arg(long, default_value_t = 150)]
-    effect_evals: usize,
-    /// Make a synthetic batch into --out with this undeclared effect (a library name, or
-    /// `none`) instead of diagnosing.
-    #[arg(long, value_name = "EFFECT")]
-    synth: Option<String>,
-    /// Make a batch into --out through the whole loop (executor, firmware simulator,
-    /// camera, tracker; simulated time) in this world file, whose `[effects]` the host is
-    /// never told, instead of diagnosing.
-    #[arg(long, value_name = "WORLD")]
-    rig_world: Option<PathBuf>,
-    /// Trials per synthetic (or --rig-world) batch.
-    #[arg(long, default_value_t = 6)]
-    n_trials: usize,
-    /// Strokes per synthetic trial.
-    #[arg(long, default_value_t = 3)]
-    strokes: usize,
-    /// Run blind diagnoses of synthetic batches (every effect and clean controls, this many
-    /// seeds each) and print the confusion matrix and before/after errors.
-    #[arg(long, value_name = "SEEDS")]
-    confusion: Option<usize>,
-    /// With --confusion: only these true effects (comma-separated library names, `none` for
-    /// the clean control); default every effect and the clean control.
-    #[arg(long, value_delimiter = ',', value_name = "EFFECTS")]
-    pub(crate) only: Vec<String>,
-    /// Seed of the synthetic batches.
-    #[arg(long, default_value_t = 1)]
-    pub(crate) seed: u64,
+    #[command(flatten)]
+    budgets: Budgets,
 }
 
-pub(crate) fn candidate(name: &str) -> Result<Candidate> {
-    if name == "none" {
-        return Ok(Candidate::Nominal);
-    }
-    Candidate::EFFECTS.into_iter().find(|c| c.name() == name).with_context(|| {
-        let names: Vec<_> = Candidate::EFFECTS.iter().map(|c| c.name()).collect();
+#[derive(Debug, Args)]
+struct SynthArgs {
+    /// The undeclared effect: a library name, or `none`.
+    effect: String,
+    /// Output directory (one `trial-NNN` directory per trial).
+    #[arg(long, default_value = "runs/diagnose")]
+    out: PathBuf,
+    /// Trials in the batch.
+    #[arg(long, default_value_t = 6)]
+    n_trials: usize,
+    /// Strokes per trial.
+    #[arg(long, default_value_t = 3)]
+    strokes: usize,
+    /// Seed of the batch (true model, strokes, noise).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+#[derive(Debug, Args)]
+struct RigArgs {
+    /// The world file (its `[effects]` are the undeclared ones).
+    world: PathBuf,
+    /// Output directory (one `trial-NNN` directory per trial).
+    #[arg(long, default_value = "runs/diagnose")]
+    out: PathBuf,
+    /// Trials in the batch.
+    #[arg(long, default_value_t = 6)]
+    n_trials: usize,
+    /// Seed of the batch (plans, world noise).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// The effect called `name` (a library name, or `none` for the nominal model).
+pub(crate) fn effect(name: &str) -> Result<Effect> {
+    Effect::from_name(name).with_context(|| {
+        let names: Vec<_> = Effect::EFFECTS.iter().map(|c| c.name()).collect();
         format!("unknown effect {name:?}; the library has none, {}", names.join(", "))
     })
 }
 
-fn synth_batch(
-    out: &Path,
-    effect: Candidate,
-    n: usize,
-    strokes: usize,
-    seed: u64,
-) -> Result<Vec<PathBuf>> {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let truth = batch_truth(effect, n, &mut rng);
-    (0..n)
-        .map(|i| {
-            let id = format!("trial-{i:03}");
-            let dir = out.join(&id);
-            write_trial(
-                &dir,
-                &id,
-                i,
-                &truth,
-                strokes,
-                &SynthNoise::default(),
-                seed * 1000 + i as u64,
-            )?;
-            Ok(dir)
-        })
-        .collect()
-}
-
 fn run_dirs(dirs: &[PathBuf], opts: &Options, quiet: bool) -> Result<Diagnosis> {
-    if dirs.len() < 2 {
-        bail!("diagnose needs at least two trials (one to train on, one held out)");
-    }
-    let trials: Vec<TrialData> =
-        dirs.iter().enumerate().map(|(i, d)| TrialData::load(d, i)).collect::<Result<_, _>>()?;
-    let (train, test): (Vec<_>, Vec<_>) = trials.into_iter().partition(|t| t.index % 2 == 0);
+    let (train, test) = load_split(dirs)?;
     let pb = if quiet { ProgressBar::hidden() } else { ProgressBar::new_spinner() };
     pb.set_style(
         ProgressStyle::with_template("{spinner} {elapsed} fitting {msg}").expect("template"),
@@ -123,28 +135,8 @@ fn write_outputs(d: &Diagnosis, out: &Path) -> Result<()> {
     Ok(())
 }
 
-pub(crate) fn run(args: &DiagnoseArgs) -> Result<()> {
-    let opts = Options {
-        nominal_evals: args.nominal_evals,
-        effect_evals: args.effect_evals,
-        ..Options::default()
-    };
-    if let Some(name) = &args.synth {
-        let dirs =
-            synth_batch(&args.out, candidate(name)?, args.n_trials, args.strokes, args.seed)?;
-        println!("wrote {} trials under {}", dirs.len(), args.out.display());
-        return Ok(());
-    }
-    if let Some(path) = &args.rig_world {
-        let world = mesopush_rig::WorldFile::load(path)?;
-        let dirs = write_rig_batch(&args.out, &world, args.n_trials, args.seed)?;
-        println!("wrote {} trials under {}", dirs.len(), args.out.display());
-        return Ok(());
-    }
-    if let Some(seeds) = args.confusion {
-        return super::cmd_diagnose_confusion::run(args, &opts, seeds);
-    }
-    let d = run_dirs(&args.trials, &opts, args.json)?;
+fn run_trials(args: &RunArgs) -> Result<()> {
+    let d = run_dirs(&args.trials, &args.budgets.options(), args.json)?;
     write_outputs(&d, &args.out)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report::json(&d))?);
@@ -158,17 +150,20 @@ pub(crate) fn run(args: &DiagnoseArgs) -> Result<()> {
     Ok(())
 }
 
-/// For the confusion run: generate and diagnose one batch.
-pub(crate) fn blind(
-    args: &DiagnoseArgs,
-    opts: &Options,
-    effect: Candidate,
-    seed: u64,
-) -> Result<Diagnosis> {
-    let dir = args.out.join(format!("{}-{seed}", effect.name()));
-    if dir.exists() {
-        std::fs::remove_dir_all(&dir).with_context(|| format!("clearing {}", dir.display()))?;
+pub(crate) fn run(args: &DiagnoseArgs) -> Result<()> {
+    match &args.mode {
+        Mode::Run(a) => run_trials(a),
+        Mode::Synth(a) => {
+            let dirs = write_batch(&a.out, effect(&a.effect)?, a.n_trials, a.strokes, a.seed)?;
+            println!("wrote {} trials under {}", dirs.len(), a.out.display());
+            Ok(())
+        }
+        Mode::Rig(a) => {
+            let world = mesopush_rig::WorldFile::load(&a.world)?;
+            let dirs = write_rig_batch(&a.out, &world, a.n_trials, a.seed)?;
+            println!("wrote {} trials under {}", dirs.len(), a.out.display());
+            Ok(())
+        }
+        Mode::Confusion(a) => super::cmd_diagnose_confusion::run(a),
     }
-    let dirs = synth_batch(&dir, effect, args.n_trials, args.strokes, seed)?;
-    run_dirs(&dirs, opts, true)
 }

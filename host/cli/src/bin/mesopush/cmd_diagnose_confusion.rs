@@ -1,86 +1,57 @@
-//! `mesopush diagnose --confusion N`: blind diagnoses of synthetic batches, N seeds per true
-//! effect (clean controls included), summarised as a confusion matrix (true effect ×
-//! verdict) and the mean held-out errors before and after.
+//! `mesopush diagnose confusion`: parses the experiment's settings, runs
+//! [`mesopush_diagnose::confusion::run`] with a log line per batch and a progress bar on
+//! stderr, and prints the confusion matrix and the per-batch errors.
 
-use super::cmd_diagnose::{DiagnoseArgs, blind, candidate};
+use super::cmd_diagnose::{Budgets, effect};
 use anyhow::Result;
+use clap::Args;
 use indicatif::ProgressBar;
-use mesopush_diagnose::report::mse_before_after;
-use mesopush_diagnose::{Candidate, Options, Verdict};
+use mesopush_diagnose::confusion::{self, ConfusionSettings};
+use std::path::PathBuf;
 
-pub(crate) fn run(args: &DiagnoseArgs, opts: &Options, seeds: usize) -> Result<()> {
-    let truths: Vec<Candidate> = if args.only.is_empty() {
-        std::iter::once(Candidate::Nominal).chain(Candidate::EFFECTS).collect()
-    } else {
-        args.only.iter().map(|n| candidate(n)).collect::<Result<_>>()?
-    };
+#[derive(Debug, Args)]
+pub(crate) struct ConfusionArgs {
+    /// Batches per true effect (seeds --seed, --seed + 1, ...).
+    #[arg(long, default_value_t = 3)]
+    seeds: usize,
+    /// Only these true effects (comma-separated library names, `none` for the clean
+    /// control); default every effect and the clean control.
+    #[arg(long, value_delimiter = ',', value_name = "EFFECTS")]
+    only: Vec<String>,
+    /// Seed of each effect's first batch.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Directory the batches are written to (`<effect>-<seed>` each).
+    #[arg(long, default_value = "runs/diagnose")]
+    out: PathBuf,
+    /// Trials per batch.
+    #[arg(long, default_value_t = 6)]
+    n_trials: usize,
+    /// Strokes per synthetic trial.
+    #[arg(long, default_value_t = 3)]
+    strokes: usize,
+    #[command(flatten)]
+    budgets: Budgets,
+}
+
+pub(crate) fn run(args: &ConfusionArgs) -> Result<()> {
+    let mut settings = ConfusionSettings::new(&args.out);
+    if !args.only.is_empty() {
+        settings.truths = args.only.iter().map(|n| effect(n)).collect::<Result<_>>()?;
+    }
+    settings.seeds = args.seeds;
+    settings.first_seed = args.seed;
+    settings.n_trials = args.n_trials;
+    settings.strokes = args.strokes;
+    settings.options = args.budgets.options();
     let started = std::time::Instant::now();
-    let pb = ProgressBar::new((truths.len() * seeds) as u64);
-    let mut rows = Vec::new();
-    for &t in &truths {
-        for k in 0..seeds {
-            let seed = args.seed + k as u64;
-            let d = match blind(args, opts, t, seed) {
-                Ok(d) => d,
-                Err(e) => {
-                    // One batch that cannot be made or diagnosed must not lose the others.
-                    eprintln!("{} seed {seed}: error: {e:#}", t.name());
-                    pb.inc(1);
-                    continue;
-                }
-            };
-            let (b, a) = mse_before_after(&d);
-            let called = match d.verdict {
-                Verdict::Effect => d.best.candidate.name().to_string(),
-                Verdict::Unexplained => "unexplained".into(),
-                Verdict::None => "none".into(),
-            };
-            let scores: Vec<String> = d
-                .scores
-                .iter()
-                .map(|s| {
-                    let v: Vec<String> = s.params.iter().map(|p| format!("{:.3}", p.1)).collect();
-                    format!(
-                        "{} held-out {:.1} bic {:.0} ({})",
-                        s.candidate.name(),
-                        s.heldout_norm,
-                        s.bic,
-                        v.join(" ")
-                    )
-                })
-                .collect();
-            eprintln!("{} seed {seed}: {called}\n  {}", t.name(), scores.join("\n  "));
-            rows.push((t, seed, called, b, a));
-            pb.inc(1);
-        }
-    }
+    let pb = ProgressBar::new((settings.truths.len() * settings.seeds) as u64);
+    let report = confusion::run(&settings, &mut |truth, seed, outcome| {
+        eprintln!("{}", confusion::batch_line(truth, seed, outcome));
+        pb.inc(1);
+    })?;
     pb.finish_and_clear();
-    eprintln!("{} batches in {:.0} s", rows.len(), started.elapsed().as_secs_f64());
-    let cols: Vec<String> = Candidate::EFFECTS
-        .iter()
-        .map(|c| c.name().to_string())
-        .chain(["unexplained".into(), "none".into()])
-        .collect();
-    println!("| true \\ verdict | {} |", cols.join(" | "));
-    println!("|---|{}", "---|".repeat(cols.len()));
-    for &t in &truths {
-        let name = if t == Candidate::Nominal { "clean" } else { t.name() };
-        let counts: Vec<String> = cols
-            .iter()
-            .map(|c| rows.iter().filter(|r| r.0 == t && &r.2 == c).count().to_string())
-            .collect();
-        println!("| {name} | {} |", counts.join(" | "));
-    }
-    println!(
-        "\n| true effect | seed | verdict | X,Y MSE before (µm²) | after | θ MSE before (rad²) | after |"
-    );
-    println!("|---|---|---|---|---|---|---|");
-    for (t, seed, called, b, a) in &rows {
-        let name = if *t == Candidate::Nominal { "clean" } else { t.name() };
-        println!(
-            "| {name} | {seed} | {called} | {:.2} | {:.2} | {:.2e} | {:.2e} |",
-            b.xy_um2, a.xy_um2, b.theta_rad2, a.theta_rad2
-        );
-    }
+    eprintln!("{} batches in {:.0} s", report.rows.len(), started.elapsed().as_secs_f64());
+    print!("{}", report.text());
     Ok(())
 }

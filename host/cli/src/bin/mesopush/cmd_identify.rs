@@ -1,22 +1,21 @@
-//! `mesopush identify`: identify μ and the three-point support from unconstrained pushing
-//! trials (Table I, cross-trial matrix, nominal model TOML), optionally refine them jointly
-//! and write the set of supports consistent with the data; `--synthesize DIR` writes a demo
-//! dataset of simulated trials with known truth.
+//! `mesopush identify run|shard|merge|synth`: identify μ and the three-point support from
+//! unconstrained pushing trials (Table I, cross-trial matrix, nominal model TOML), optionally
+//! refine them jointly and write the set of supports consistent with the data; split the
+//! sweep into shards and merge them; write a demo dataset of simulated trials with known
+//! truth.
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
+use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use mesopush_core::geom::{ConvexPolygon, Vec2};
 use mesopush_core::shard::Shard;
 use mesopush_ident::figure::{Fig5Trial, draw_fig5};
-use mesopush_ident::shard::{self, SweepKey, SweepShard};
-use mesopush_ident::sweep::{grid, score_jobs};
-use mesopush_ident::synth::{SynthSpec, demo_truth, hexagon, write_trials};
+use mesopush_ident::shard::{merged_sweep, owned, save, score_shard};
+use mesopush_ident::synth::{DemoPart, DemoSettings, write_demo};
 use mesopush_ident::{
-    IdentTrial, IdentifySettings, OptimizeSettings, ScoreSettings, Sweep, SweepSettings, Ticks,
-    identify, identify_from,
+    IdentTrial, IdentifySettings, OptimizeSettings, ScoreSettings, SweepSettings, Ticks, identify,
+    identify_from,
 };
-use mesopush_sim::{Model, Part, SimSettings};
+use mesopush_sim::{Model, SimSettings};
 use rand::SeedableRng;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -25,9 +24,30 @@ use std::time::Instant;
 /// Identify probe friction and support distribution from unconstrained pushing trials.
 #[derive(Debug, Args)]
 pub(crate) struct IdentifyArgs {
+    #[command(subcommand)]
+    mode: Mode,
+}
+
+#[derive(Debug, Subcommand)]
+enum Mode {
+    /// Identify from trials: the sweep, optionally the joint optimiser, the report, the
+    /// model and the consistent supports.
+    Run(RunArgs),
+    /// Score one shard of the sweep (candidates k ≡ I mod N) and write it to a file, for
+    /// `identify merge` (docs/batch.md, Scale).
+    Shard(ShardArgs),
+    /// As `identify run`, with the sweep assembled from `identify shard` files.
+    Merge(MergeArgs),
+    /// Write a demo dataset of simulated trials (known truth, tracking noise).
+    Synth(SynthArgs),
+}
+
+/// The trials and the sweep over them (shared by every mode that reads trials).
+#[derive(Debug, Args)]
+struct SweepArgs {
     /// Trial directories (each with trial.json, probe.csv, pose.csv), or directories holding
     /// such trial directories.
-    #[arg(required_unless_present = "synthesize")]
+    #[arg(required = true)]
     trials: Vec<PathBuf>,
     /// μ grid step over [0, --mu-max].
     #[arg(long, default_value_t = 0.05)]
@@ -41,21 +61,27 @@ pub(crate) struct IdentifyArgs {
     /// Surface friction of the sampled supports.
     #[arg(long, default_value_t = 0.3)]
     mu_surface: f64,
-    /// Seed of every random choice (supports, optimiser restarts, synthetic noise).
+    /// Seed of every random choice (supports, optimiser).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Refine μ and the support points jointly (Nelder–Mead) from the sweep's nominal.
-    #[arg(long)]
-    optimize: bool,
-    /// Optimiser budget: objective evaluations (each simulates every trial).
-    #[arg(long, default_value_t = 600)]
-    max_evals: usize,
-    /// Let the optimiser fit the (shared) surface friction too.
-    #[arg(long)]
-    fit_surface: bool,
     /// Probe travel per simulation step, µm.
     #[arg(long, default_value_t = SimSettings::default().step_um)]
     step_um: f64,
+}
+
+/// Everything after the sweep: the optimiser and the outputs.
+#[derive(Debug, Args)]
+struct FitArgs {
+    /// Refine μ and the support points jointly from the sweep's best candidates: an
+    /// evolution strategy, then Levenberg–Marquardt, then Nelder–Mead restarts.
+    #[arg(long)]
+    optimize: bool,
+    /// Optimiser budget: objective evaluations (each simulates every trial).
+    #[arg(long, default_value_t = 600, requires = "optimize")]
+    max_evals: usize,
+    /// Let the optimiser fit the (shared) surface friction too.
+    #[arg(long, requires = "optimize")]
+    fit_surface: bool,
     /// Model TOML to write with the chosen parameters.
     #[arg(long, default_value = "runs/identify/model.toml")]
     out: PathBuf,
@@ -68,29 +94,61 @@ pub(crate) struct IdentifyArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
-    /// Write a demo dataset of simulated trials (known truth, tracking noise) to DIR and exit.
-    #[arg(long, value_name = "DIR")]
-    synthesize: Option<PathBuf>,
-    /// Part of the synthetic trials: `peg` (1615 × 985 µm) or `hexagon`.
-    #[arg(long, default_value = "peg")]
-    synth_part: String,
-    /// Scale factor of the synthetic part and push lengths.
-    #[arg(long, default_value_t = 1.0)]
-    synth_scale: f64,
-    /// Probe speed of the synthetic trials, µm/s.
-    #[arg(long, default_value_t = 200.0)]
-    synth_speed_um_s: f64,
-    /// Score only the sweep's candidates k ≡ I (mod N) (`I/N`), write them to
-    /// `--sweep-out` and exit; `--sweep-from` merges the shards (docs/batch.md, Scale).
-    #[arg(long, value_name = "I/N", conflicts_with = "sweep_from")]
-    shard: Option<String>,
-    /// Where `--shard` writes its scores [default: runs/identify/sweep-shard-I-of-N.json].
-    #[arg(long, requires = "shard")]
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
+    #[command(flatten)]
+    sweep: SweepArgs,
+    #[command(flatten)]
+    fit: FitArgs,
+}
+
+#[derive(Debug, Args)]
+struct ShardArgs {
+    /// The shard, `I/N`: scores the sweep's candidates k ≡ I (mod N).
+    #[arg(value_name = "I/N")]
+    shard: String,
+    #[command(flatten)]
+    sweep: SweepArgs,
+    /// Where to write the scores [default: runs/identify/sweep-shard-I-of-N.json].
+    #[arg(long)]
     sweep_out: Option<PathBuf>,
-    /// Take the sweep from these `--shard` outputs (same trials, seed and settings) instead
-    /// of running it; the rest (optimiser, report, model) runs as usual.
-    #[arg(long, num_args = 1.., value_name = "FILE")]
-    sweep_from: Option<Vec<PathBuf>>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+struct MergeArgs {
+    #[command(flatten)]
+    sweep: SweepArgs,
+    /// The `identify shard` files of this sweep (same trials, seed and settings), all N.
+    #[arg(long, required = true, num_args = 1.., value_name = "FILE")]
+    sweep_from: Vec<PathBuf>,
+    #[command(flatten)]
+    fit: FitArgs,
+}
+
+#[derive(Debug, Args)]
+struct SynthArgs {
+    /// Directory to write the trials (`synth-NN/`) and `true_model.toml` into.
+    dir: PathBuf,
+    /// The part: `peg` (1615 × 985 µm) or `hexagon`.
+    #[arg(long, default_value = "peg")]
+    part: DemoPart,
+    /// Scale factor of the part, its support and the push lengths.
+    #[arg(long, default_value_t = 1.0)]
+    scale: f64,
+    /// Probe speed, µm/s.
+    #[arg(long, default_value_t = 200.0)]
+    speed_um_s: f64,
+    /// Seed of the tracking noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
 }
 
 fn bar(n: u64, msg: &'static str, hidden: bool) -> ProgressBar {
@@ -128,117 +186,43 @@ fn trial_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(out)
 }
 
-fn synthesize(args: &IdentifyArgs, dir: &Path) -> Result<()> {
-    let s = args.synth_scale;
-    if !(s.is_finite() && s > 0.0) {
-        bail!("--synth-scale must be > 0");
-    }
-    let mut truth = demo_truth();
-    truth.part = match args.synth_part.as_str() {
-        "peg" => truth.part,
-        "hexagon" => hexagon(650.0),
-        other => bail!("--synth-part {other}: use peg or hexagon"),
-    };
-    let verts: Vec<Vec2> = truth.part.polygon().vertices().iter().map(|v| v * s).collect();
-    truth.part = Part::from_polygon(&ConvexPolygon::new(verts)?);
-    truth.support.points_um = truth.support.points_um.map(|[x, y]| [x * s, y * s]);
-    if args.synth_part == "hexagon" {
-        truth.support.points_um =
-            [[-300.0 * s, 250.0 * s], [-150.0 * s, -350.0 * s], [420.0 * s, 60.0 * s]];
-    }
-    truth.validate().context("synthetic truth")?;
-    let mut spec = SynthSpec::paper_like(truth.clone(), 900.0 * s);
-    spec.speed_um_s = args.synth_speed_um_s;
+fn load_trials(args: &SweepArgs) -> Result<Vec<IdentTrial>> {
+    let dirs = trial_dirs(&args.trials)?;
+    Ok(dirs.iter().map(|d| IdentTrial::load(d)).collect::<Result<_, _>>()?)
+}
+
+fn synthesize(args: &SynthArgs) -> Result<()> {
+    let settings = DemoSettings { part: args.part, scale: args.scale, speed_um_s: args.speed_um_s };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
-    let dirs = write_trials(&spec, dir, &mut rng)?;
-    truth.save(&dir.join("true_model.toml"))?;
+    let demo = write_demo(&settings, &args.dir, &mut rng)?;
     if args.json {
-        println!("{}", json!({ "trials": dirs, "true_model": truth }));
+        println!("{}", json!({ "trials": demo.trials, "true_model": demo.truth }));
     } else {
         println!(
             "wrote {} synthetic trials to {} (truth: {})",
-            dirs.len(),
-            dir.display(),
-            dir.join("true_model.toml").display()
+            demo.trials.len(),
+            args.dir.display(),
+            demo.truth_file.display()
         );
     }
     Ok(())
 }
 
-fn sweep_key(args: &IdentifyArgs, trials: &[IdentTrial], s: &IdentifySettings) -> SweepKey {
-    SweepKey {
-        trials: trials.iter().map(|t| t.id.clone()).collect(),
-        seed: args.seed,
-        mu_step: s.sweep.mu_step,
-        mu_max: s.sweep.mu_max,
-        n_supports: s.sweep.n_supports,
-        mu_surface: s.sweep.mu_surface,
-        step_um: s.score.sim.step_um,
-        mu_wall: s.score.mu_wall,
-    }
-}
-
-/// `--shard I/N`: scores this shard's candidates and writes them.
-fn run_shard(
-    args: &IdentifyArgs,
-    trials: &[IdentTrial],
-    settings: &IdentifySettings,
-    shard: Shard,
-    rng: &mut impl rand::Rng,
-    tick: &(dyn Fn() + Sync),
-) -> Result<()> {
-    let (mus, supports) = grid(trials, &settings.sweep, rng)?;
-    let n = mus.len() * supports.len();
-    let ks = SweepShard::owned(shard, n);
-    let flat = score_jobs(trials, &mus, &supports, &settings.score, &ks, tick);
-    let key = sweep_key(args, trials, settings);
-    let file = SweepShard::new(key, shard, n, &ks, &flat);
-    let default = format!("runs/identify/sweep-{}.json", shard.dir_name());
-    let out = args.sweep_out.clone().unwrap_or_else(|| PathBuf::from(default));
-    write_parent(&out)?;
-    file.save(&out)?;
-    let v = json!({"shard": format!("{}/{}", shard.index, shard.count), "candidates": ks.len(),
-        "trials": trials.len(), "sweep_out": out});
-    if args.json {
-        println!("{v}")
-    } else {
-        println!("sweep shard written: {}", out.display())
-    }
-    Ok(())
-}
-
-/// `--sweep-from`: the sweep assembled from shard files (the grid re-drawn from the seed,
-/// which also leaves `rng` where the unsplit sweep leaves it).
-fn merged_sweep(
-    args: &IdentifyArgs,
-    trials: &[IdentTrial],
-    settings: &IdentifySettings,
-    rng: &mut impl rand::Rng,
-    paths: &[PathBuf],
-) -> Result<Sweep> {
-    let (mus, supports) = grid(trials, &settings.sweep, rng)?;
-    let files = paths
-        .iter()
-        .map(|p| SweepShard::load(p).map(|f| (p.clone(), f)))
-        .collect::<Result<Vec<_>, _>>()?;
-    Ok(shard::merge(&files, &sweep_key(args, trials, settings), mus, supports)?)
-}
-
-fn settings(args: &IdentifyArgs) -> IdentifySettings {
+fn settings(sweep: &SweepArgs, fit: Option<&FitArgs>) -> IdentifySettings {
     IdentifySettings {
         sweep: SweepSettings {
-            mu_step: args.mu_step,
-            mu_max: args.mu_max,
-            n_supports: args.supports,
-            mu_surface: args.mu_surface,
+            mu_step: sweep.mu_step,
+            mu_max: sweep.mu_max,
+            n_supports: sweep.supports,
+            mu_surface: sweep.mu_surface,
         },
-        optimize: args.optimize.then(|| OptimizeSettings {
-            max_evals: args.max_evals,
-            fit_surface: args.fit_surface,
+        optimize: fit.filter(|f| f.optimize).map(|f| OptimizeSettings {
+            max_evals: f.max_evals,
+            fit_surface: f.fit_surface,
             ..OptimizeSettings::default()
         }),
         score: ScoreSettings {
-            sim: SimSettings { step_um: args.step_um, ..SimSettings::default() },
+            sim: SimSettings { step_um: sweep.step_um, ..SimSettings::default() },
             ..ScoreSettings::default()
         },
     }
@@ -251,37 +235,47 @@ fn write_parent(path: &Path) -> Result<()> {
     Ok(())
 }
 
-pub(crate) fn run(args: &IdentifyArgs) -> Result<()> {
-    if let Some(dir) = &args.synthesize {
-        return synthesize(args, dir);
+/// `identify shard I/N`: scores this shard's candidates and writes them.
+fn run_shard(args: &ShardArgs) -> Result<()> {
+    let shard = Shard::parse(&args.shard)?;
+    let trials = load_trials(&args.sweep)?;
+    let settings = settings(&args.sweep, None);
+    let candidates = settings.sweep.mus()?.len() * settings.sweep.n_supports;
+    let n_owned = owned(shard, candidates).len();
+    let sweep_bar = bar((trials.len() * n_owned) as u64, "sweep", args.json);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.sweep.seed);
+    let tick = || sweep_bar.inc(1);
+    let file = score_shard(&trials, &settings, args.sweep.seed, shard, &mut rng, &tick)?;
+    sweep_bar.finish_and_clear();
+    let default = format!("runs/identify/sweep-{}.json", shard.dir_name());
+    let out = args.sweep_out.clone().unwrap_or_else(|| PathBuf::from(default));
+    write_parent(&out)?;
+    save(&file, &out)?;
+    let v = json!({"shard": format!("{}/{}", shard.index, shard.count), "candidates": n_owned,
+        "trials": trials.len(), "sweep_out": out});
+    if args.json {
+        println!("{v}")
+    } else {
+        println!("sweep shard written: {}", out.display())
     }
-    let dirs = trial_dirs(&args.trials)?;
-    let trials: Vec<IdentTrial> =
-        dirs.iter().map(|d| IdentTrial::load(d)).collect::<Result<_, _>>()?;
-    let settings = settings(args);
-    let mus = settings.sweep.mus()?.len();
-    let shard = args.shard.as_deref().map(Shard::parse).transpose()?;
-    let candidates = mus * settings.sweep.n_supports;
-    let candidates = shard.map_or(candidates, |s| SweepShard::owned(s, candidates).len());
-    let n_sweep = (trials.len() * candidates) as u64;
-    let sweep_bar = bar(n_sweep, "sweep", args.json);
-    let opt_bar = bar(
-        if args.optimize { args.max_evals as u64 } else { 0 },
-        "optimize",
-        args.json || !args.optimize,
-    );
+    Ok(())
+}
+
+/// `identify run` (no shard files) and `identify merge` (the sweep from `shards`).
+fn run_identify(sweep: &SweepArgs, fit: &FitArgs, shards: Option<&[PathBuf]>) -> Result<()> {
+    let trials = load_trials(sweep)?;
+    let settings = settings(sweep, Some(fit));
+    let n_sweep = (trials.len() * settings.sweep.mus()?.len() * settings.sweep.n_supports) as u64;
+    let sweep_bar = bar(n_sweep, "sweep", fit.json);
+    let opt_evals = if fit.optimize { fit.max_evals as u64 } else { 0 };
+    let opt_bar = bar(opt_evals, "optimize", fit.json || !fit.optimize);
     let ticks = Ticks { sweep: &|| sweep_bar.inc(1), optimize: &|| opt_bar.inc(1) };
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.seed);
-    if let Some(s) = shard {
-        let done = run_shard(args, &trials, &settings, s, &mut rng, ticks.sweep);
-        sweep_bar.finish_and_clear();
-        return done;
-    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(sweep.seed);
     let t0 = Instant::now();
-    let report = match &args.sweep_from {
+    let report = match shards {
         None => identify(&trials, &settings, &mut rng, &ticks)?,
         Some(paths) => {
-            let sw = merged_sweep(args, &trials, &settings, &mut rng, paths)?;
+            let sw = merged_sweep(&trials, &settings, sweep.seed, &mut rng, paths)?;
             identify_from(&trials, sw, &settings, &mut rng, &ticks)?
         }
     };
@@ -289,36 +283,57 @@ pub(crate) fn run(args: &IdentifyArgs) -> Result<()> {
     sweep_bar.finish_and_clear();
     opt_bar.finish_and_clear();
     let model: Model = report.model(&trials[0], &settings);
-    write_parent(&args.out)?;
-    model.save(&args.out)?;
-    write_parent(&args.consistent_out)?;
-    report.consistent.save(&args.consistent_out)?;
-    let figs = match &args.fig {
+    write_parent(&fit.out)?;
+    model.save(&fit.out)?;
+    write_parent(&fit.consistent_out)?;
+    report.consistent.save(&fit.consistent_out)?;
+    let figs = match &fit.fig {
         Some(dir) => figures(&trials, &report, &settings, dir)?,
         None => Vec::new(),
     };
-    if args.json {
+    print_report(&report, &model, fit, &figs, runtime_s, sweep.seed)
+}
+
+fn print_report(
+    report: &mesopush_ident::Report,
+    model: &Model,
+    fit: &FitArgs,
+    figs: &[PathBuf],
+    runtime_s: f64,
+    seed: u64,
+) -> Result<()> {
+    if fit.json {
+        let c = &report.consistent;
         let v = json!({
-            "report": report, "model": model, "model_file": args.out,
-            "consistent": { "count": report.consistent.members.len(), "examined": report.consistent.examined,
-                "mu_range": report.consistent.mu_range, "point_bounds_um": report.consistent.point_bounds_um,
-                "noise_var_um2": report.consistent.noise_var_um2, "threshold_um2": report.consistent.threshold_um2,
-                "file": args.consistent_out },
-            "figures": figs, "runtime_s": runtime_s, "seed": args.seed,
+            "report": report, "model": model, "model_file": fit.out,
+            "consistent": { "count": c.members.len(), "examined": c.examined,
+                "mu_range": c.mu_range, "point_bounds_um": c.point_bounds_um,
+                "noise_var_um2": c.noise_var_um2, "threshold_um2": c.threshold_um2,
+                "file": fit.consistent_out },
+            "figures": figs, "runtime_s": runtime_s, "seed": seed,
         });
         println!("{v}");
     } else {
         print!("{}", report.text());
         println!(
             "model: {}  consistent supports: {}  ({runtime_s:.1} s)",
-            args.out.display(),
-            args.consistent_out.display()
+            fit.out.display(),
+            fit.consistent_out.display()
         );
-        for f in &figs {
+        for f in figs {
             println!("figure: {}", f.display());
         }
     }
     Ok(())
+}
+
+pub(crate) fn run(args: &IdentifyArgs) -> Result<()> {
+    match &args.mode {
+        Mode::Run(a) => run_identify(&a.sweep, &a.fit, None),
+        Mode::Shard(a) => run_shard(a),
+        Mode::Merge(a) => run_identify(&a.sweep, &a.fit, Some(&a.sweep_from)),
+        Mode::Synth(a) => synthesize(a),
+    }
 }
 
 /// Fig. 5: the best and the worst trial under the chosen parameters.

@@ -1,21 +1,57 @@
-//! The last stage of the joint fit: Levenberg–Marquardt on the residual vector (Δx, Δy, L·Δθ
-//! of every scored pose of every trial), with a forward-difference Jacobian.
+//! Levenberg–Marquardt on a residual vector, with a forward-difference Jacobian.
 //!
-//! The evolution strategy and the simplex find the right basin but crawl inside it: the
-//! objective is a sum of thousands of squares, nearly quadratic near the truth, and a
-//! Gauss–Newton step uses that shape where a simplex has to discover it. Each iteration
-//! spends one evaluation per parameter on the Jacobian (in parallel) and then tries four
-//! damping factors at once (in parallel), keeping the best step that lowers the total.
-//! Deterministic: no random choice, results collected in index order.
+//! For objectives that are a sum of many squares: an evolution strategy or a simplex finds the
+//! right basin but crawls inside it, while near the optimum such a sum is nearly quadratic and
+//! a Gauss–Newton step uses that shape where a simplex has to discover it. Each iteration
+//! spends one evaluation per parameter on the Jacobian (in parallel) and then tries every
+//! damping factor of [`LmSettings::damping`] at once (in parallel), keeping the best step that
+//! lowers the total. Deterministic: no random choice, results collected in index order.
 
+use super::Minimum;
 use rayon::prelude::*;
 
 /// A residual function: `None` for a parameter vector the model cannot simulate.
-pub type Residuals<'a> = &'a (dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync);
+pub type ResidualFn<'a> = &'a (dyn Fn(&[f64]) -> Option<Vec<f64>> + Sync);
 
-/// What [`levenberg_marquardt`] returns: best point, its sum of squares, evaluations used and
-/// every evaluated point with its sum of squares.
-pub type Polished = (Vec<f64>, f64, usize, Vec<(Vec<f64>, f64)>);
+/// The damping schedule.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LmSettings {
+    /// Initial damping λ (Marquardt's, relative to the diagonal of JᵀJ). Default 1e-3.
+    pub lambda0: f64,
+    /// The dampings tried in each iteration, as multiples of the current λ. Default
+    /// [1/4, 1, 4, 16].
+    pub damping: [f64; 4],
+    /// After an accepted step λ becomes the accepted damping divided by this. Default 3.
+    pub accept_divisor: f64,
+    /// The smallest λ after an accepted step. Default 1e-9.
+    pub lambda_min: f64,
+    /// After an iteration without improvement λ is multiplied by this. Default 64.
+    pub reject_factor: f64,
+    /// The run ends when λ reaches this. Default 1e8.
+    pub lambda_max: f64,
+    /// The run ends after an accepted step that lowers the sum of squares by less than this
+    /// fraction. Default 1e-6.
+    pub min_improvement: f64,
+}
+
+impl LmSettings {
+    /// The documented defaults.
+    pub const DEFAULT: Self = Self {
+        lambda0: 1e-3,
+        damping: [0.25, 1.0, 4.0, 16.0],
+        accept_divisor: 3.0,
+        lambda_min: 1e-9,
+        reject_factor: 64.0,
+        lambda_max: 1e8,
+        min_improvement: 1e-6,
+    };
+}
+
+impl Default for LmSettings {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
 
 fn sse(r: &Option<Vec<f64>>) -> f64 {
     r.as_ref().map_or(f64::INFINITY, |r| r.iter().map(|v| v * v).sum())
@@ -48,7 +84,7 @@ pub fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
 }
 
 /// Jacobian columns by forward differences (backward where the forward point fails).
-fn jacobian(f: Residuals<'_>, x: &[f64], r0: &[f64], h: &[f64]) -> Option<Vec<Vec<f64>>> {
+fn jacobian(f: ResidualFn<'_>, x: &[f64], r0: &[f64], h: &[f64]) -> Option<Vec<Vec<f64>>> {
     let cols: Vec<Option<Vec<f64>>> = (0..x.len())
         .into_par_iter()
         .map(|i| {
@@ -78,16 +114,22 @@ fn step(jtj: &[Vec<f64>], jtr: &[f64], lambda: f64) -> Option<Vec<f64>> {
 }
 
 /// Minimises the sum of squares of `f` from `x0` with finite-difference steps `h`; at most
-/// about `budget` evaluations (an iteration costs `x0.len() + 4`).
-pub fn levenberg_marquardt(f: Residuals<'_>, x0: &[f64], h: &[f64], budget: usize) -> Polished {
+/// about `budget` evaluations (an iteration costs `x0.len()` + the number of dampings).
+pub fn levenberg_marquardt(
+    f: ResidualFn<'_>,
+    x0: &[f64],
+    h: &[f64],
+    budget: usize,
+    s: &LmSettings,
+) -> Minimum {
     let mut x = x0.to_vec();
     let mut r = f(&x);
     let mut fx = sse(&r);
     let mut evals = 1;
     let mut visited = vec![(x.clone(), fx)];
-    let mut lambda = 1e-3;
+    let mut lambda = s.lambda0;
     let p = x.len();
-    while evals + p + 4 <= budget && fx.is_finite() && lambda < 1e8 {
+    while evals + p + s.damping.len() <= budget && fx.is_finite() && lambda < s.lambda_max {
         let r0 = r.clone().unwrap_or_default();
         let Some(cols) = jacobian(f, &x, &r0, h) else { break };
         evals += p;
@@ -98,7 +140,7 @@ pub fn levenberg_marquardt(f: Residuals<'_>, x0: &[f64], h: &[f64], budget: usiz
             .collect();
         let jtr: Vec<f64> =
             cols.iter().map(|c| c.iter().zip(&r0).map(|(a, b)| a * b).sum()).collect();
-        let lambdas = [lambda / 4.0, lambda, lambda * 4.0, lambda * 16.0];
+        let lambdas = s.damping.map(|d| lambda * d);
         let tries: Vec<(f64, Vec<f64>, Option<Vec<f64>>)> = lambdas
             .par_iter()
             .filter_map(|&l| {
@@ -114,15 +156,15 @@ pub fn levenberg_marquardt(f: Residuals<'_>, x0: &[f64], h: &[f64], budget: usiz
         match best {
             Some((l, y, ry)) if sse(&ry) < fx => {
                 let improvement = (fx - sse(&ry)) / fx;
-                (x, fx, r, lambda) = (y, sse(&ry), ry, (l / 3.0).max(1e-9));
-                if improvement < 1e-6 {
+                (x, fx, r, lambda) = (y, sse(&ry), ry, (l / s.accept_divisor).max(s.lambda_min));
+                if improvement < s.min_improvement {
                     break;
                 }
             }
-            _ => lambda *= 64.0,
+            _ => lambda *= s.reject_factor,
         }
     }
-    (x, fx, evals, visited)
+    Minimum { x, value: fx, evals, visited }
 }
 
 #[cfg(test)]
@@ -138,7 +180,8 @@ mod tests {
             let m = |p: &[f64], t: f64| p[0] * (-p[1] * t).exp() + p[2];
             Some(ts.iter().map(|t| m(x, *t) - m(&truth, *t)).collect())
         };
-        let (x, fx, evals, _) = levenberg_marquardt(&f, &[1.0, 0.2, 0.0], &[1e-6; 3], 400);
+        let m = levenberg_marquardt(&f, &[1.0, 0.2, 0.0], &[1e-6; 3], 400, &LmSettings::DEFAULT);
+        let (x, fx, evals) = (m.x, m.value, m.evals);
         assert!(fx < 1e-12, "{x:?} {fx} after {evals} evaluations");
         assert!(x.iter().zip(truth).all(|(a, b)| (a - b).abs() < 1e-5), "{x:?}");
         assert!(evals <= 400);

@@ -24,10 +24,12 @@
 //! patch friction measured against a surface μ at its bound of 1.2 could not reach a ratio
 //! above 1.7 (a uniform μ moves nothing, so the surface μ is free to start anywhere).
 
-use super::candidates::{Candidate, NOMINAL};
-use super::data::TrialData;
-use super::fit::{loss, residual_vector};
-use super::starts::StartContext;
+use super::context::StartContext;
+use crate::candidates::{Effect, NOMINAL};
+use crate::data::TrialData;
+use crate::objective::{loss, residual_vector};
+use mesopush_core::stats::percentile;
+use mesopush_ident::optim::{LmSettings, levenberg_marquardt};
 use rayon::prelude::*;
 
 /// Spacing of the edge positions scanned, µm: well inside the loss's basin about a true
@@ -54,7 +56,7 @@ const MOVE_UM: f64 = 1.0;
 /// The plate coordinates (per axis) of the support points (of `base` shifted by
 /// `nominal[2..4]`) at every training frame where the peg moved since the frame before.
 fn support_track(nominal: &[f64], train: &[TrialData], ctx: &StartContext<'_>) -> [Vec<f64>; 2] {
-    let pts = Candidate::Nominal.apply(ctx.base, &nominal[..NOMINAL.len()]).support.points();
+    let pts = Effect::Nominal.apply(ctx.base, &nominal[..NOMINAL.len()]).support.points();
     let mut out = [Vec::new(), Vec::new()];
     for t in train {
         for w in t.frames.windows(2) {
@@ -77,12 +79,9 @@ fn support_track(nominal: &[f64], train: &[TrialData], ctx: &StartContext<'_>) -
 /// while the peg moved), evenly spaced at [`EDGE_STEP_UM`] or coarser so there are at most
 /// [`MAX_EDGES`].
 fn edge_grid(mut v: Vec<f64>) -> Vec<f64> {
-    if v.is_empty() {
+    let (Some(lo), Some(hi)) = (percentile(&mut v, 0.01), percentile(&mut v, 0.99)) else {
         return Vec::new();
-    }
-    v.sort_by(f64::total_cmp);
-    let at = |q: f64| v[(q * (v.len() - 1) as f64).round() as usize];
-    let (lo, hi) = (at(0.01), at(0.99));
+    };
     let n = ((hi - lo) / EDGE_STEP_UM).floor().clamp(1.0, MAX_EDGES as f64) as usize;
     let step = (hi - lo) / n as f64;
     (0..n).map(|k| lo + (k as f64 + 0.5) * step).collect()
@@ -107,7 +106,7 @@ fn vector(nom: &[f64], r: &Rect) -> Vec<f64> {
 /// Scores of a set of patches at nominal parameters `nom` (training loss; in parallel,
 /// collected in order, so deterministic).
 fn losses(nom: &[f64], rects: &[Rect], train: &[TrialData], ctx: &StartContext<'_>) -> Vec<f64> {
-    let c = Candidate::FrictionPatch;
+    let c = Effect::FrictionPatch;
     rects
         .par_iter()
         .map(|r| loss(train, &c.apply(ctx.base, &vector(nom, r)), ctx.settings, ctx.noise).0)
@@ -128,7 +127,7 @@ fn best_of(
 /// The half-plane above `edge` on `axis` with friction `mu` (the other sides at the
 /// parameter bounds, far outside any workspace).
 fn half_plane(axis: usize, edge: f64, mu: f64) -> Rect {
-    let p = Candidate::FrictionPatch.effect_params();
+    let p = Effect::FrictionPatch.effect_params();
     let mut r = Rect { lo: [p[1].lo, p[2].lo], hi: [p[3].hi, p[4].hi], mu };
     r.lo[axis] = edge;
     r
@@ -137,7 +136,7 @@ fn half_plane(axis: usize, edge: f64, mu: f64) -> Rect {
 /// The same motion with the other side of the edge as the patch: the half-plane below the
 /// edge, the frictions swapped (returned as the new plate μ and the rectangle).
 fn mirror(axis: usize, r: &Rect, plate_mu: f64) -> (f64, Rect) {
-    let p = Candidate::FrictionPatch.effect_params();
+    let p = Effect::FrictionPatch.effect_params();
     let mut m = Rect { lo: [p[1].lo, p[2].lo], hi: [p[3].hi, p[4].hi], mu: plate_mu };
     m.hi[axis] = r.lo[axis];
     (r.mu, m)
@@ -219,7 +218,7 @@ fn refine_edge(
     train: &[TrialData],
     ctx: &StartContext<'_>,
 ) -> (Vec<f64>, Rect, f64) {
-    let c = Candidate::FrictionPatch;
+    let c = Effect::FrictionPatch;
     let k = NOMINAL.len();
     let params = c.params();
     let bounded: Vec<_> = params[..=k].iter().chain([&params[k + 1 + axis]]).copied().collect();
@@ -240,9 +239,9 @@ fn refine_edge(
     let x0: Vec<f64> =
         nom[..k].iter().copied().chain([hp.mu, hp.lo[axis] - nom[2 + axis]]).collect();
     let budget = 3 * ctx.evals_per_trial.max(2 * (k + 6));
-    let (x, l, _, _) = mesopush_ident::polish::levenberg_marquardt(&res, &x0, &h, budget);
-    let x = clamp(&x);
-    (x[..k].to_vec(), rect(&x), l)
+    let m = levenberg_marquardt(&res, &x0, &h, budget, &LmSettings::DEFAULT);
+    let x = clamp(&m.x);
+    (x[..k].to_vec(), rect(&x), m.value)
 }
 
 /// The rectangle grown from `r` one side at a time (the sides still at a bound, in turn):
@@ -255,7 +254,7 @@ fn grow(
     train: &[TrialData],
     ctx: &StartContext<'_>,
 ) -> Rect {
-    let c = Candidate::FrictionPatch;
+    let c = Effect::FrictionPatch;
     let p = c.effect_params();
     let mut l = loss(train, &c.apply(ctx.base, &vector(nom, &r)), ctx.settings, ctx.noise).0;
     for (axis, upper) in [(0, false), (0, true), (1, false), (1, true)] {

@@ -1,0 +1,77 @@
+//! What the fits minimise and the verdict compares: the residual of a model over a set of
+//! trials, as a noise-weighted sum of squares ([`loss`]), as the vector of its weighted
+//! scalars ([`residual_vector`], for Levenberg–Marquardt) and as per-trial residuals
+//! ([`residuals`], for held-out errors and the report).
+
+use super::data::TrialData;
+use super::predict::predict;
+use super::residual::{Noise, Residual};
+use crate::Error;
+use mesopush_sim::{Model, SimSettings};
+
+/// Loss of a parameter set that cannot be simulated (kept finite so the simplex moves away).
+pub const FAILED: f64 = 1e12;
+
+/// The weighted sum of squared residuals of `model` over `trials` (each channel divided by
+/// its noise variance) and the number of scalar residuals in it.
+pub fn loss(
+    trials: &[TrialData],
+    model: &Model,
+    settings: &SimSettings,
+    noise: &Noise,
+) -> (f64, usize) {
+    if model.validate().is_err() {
+        return (FAILED, 1);
+    }
+    let mut sum = 0.0;
+    let mut n = 0;
+    for t in trials {
+        match predict(t, model, settings) {
+            Ok(pred) => {
+                let r = Residual::new(t, &pred);
+                let (s, k) = r.weighted_sse(noise);
+                sum += s;
+                n += k;
+            }
+            Err(_) => return (FAILED, 1),
+        }
+    }
+    (sum, n.max(1))
+}
+
+/// Every weighted residual scalar of `model` over `trials` (see
+/// [`Residual::weighted_into`]); `None` when it cannot be simulated.
+pub fn residual_vector(
+    trials: &[TrialData],
+    model: &Model,
+    settings: &SimSettings,
+    noise: &Noise,
+) -> Option<Vec<f64>> {
+    if model.validate().is_err() {
+        return None;
+    }
+    let mut out = Vec::new();
+    for t in trials {
+        let pred = predict(t, model, settings).ok()?;
+        Residual::new(t, &pred).weighted_into(noise, &mut out);
+    }
+    Some(out)
+}
+
+/// The residuals of `model` on each of `trials`; a trial it cannot simulate is an error
+/// naming it.
+pub fn residuals(
+    trials: &[TrialData],
+    model: &Model,
+    s: &SimSettings,
+) -> Result<Vec<Residual>, Error> {
+    trials
+        .iter()
+        .map(|t| {
+            let p = predict(t, model, s).map_err(|e| {
+                Error::invalid("diagnose", format!("trial {} cannot be simulated: {e}", t.id))
+            })?;
+            Ok(Residual::new(t, &p))
+        })
+        .collect()
+}

@@ -1,0 +1,45 @@
+//! The knobs of a diagnosis, in one plain-data struct with documented defaults (sized for a
+//! real batch; tests shrink the budgets).
+
+use super::candidates::Effect;
+use mesopush_sim::SimSettings;
+
+/// Knobs of a diagnosis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Evaluations for the nominal fit. Default 120.
+    pub nominal_evals: usize,
+    /// Evaluations (start grid included) for each effect fit. Default 80.
+    pub effect_evals: usize,
+    /// Candidates to try. Default every effect of [`Effect::EFFECTS`].
+    pub candidates: Vec<Effect>,
+    /// Simulator settings. Default [`SimSettings::default`].
+    pub settings: SimSettings,
+    /// Smallest relative drop of the held-out error that counts (0.3 = 30 %). Default 0.3.
+    pub min_gain: f64,
+    /// The nominal residual counts as at the floor below this many times the floor.
+    /// Default 5.
+    pub floor_factor: f64,
+    /// Smallest BIC improvement on the training trials that counts. Default 10.
+    pub min_delta_bic: f64,
+    /// Ambiguity: when the winner's held-out error stays above the floor band and another
+    /// effect's is within this factor of it (1.15 = 15 % worse), two explanations fit the
+    /// held-out trials about as well and neither explains them; the verdict is then
+    /// `unexplained` (naming both in the diagnosis's `ambiguity`), never a guess between them. Default 1.15.
+    pub ambiguity_ratio: f64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            nominal_evals: 120,
+            effect_evals: 80,
+            candidates: Effect::EFFECTS.to_vec(),
+            settings: SimSettings::default(),
+            min_gain: 0.3,
+            floor_factor: 5.0,
+            min_delta_bic: 10.0,
+            ambiguity_ratio: 1.15,
+        }
+    }
+}
