@@ -13,12 +13,14 @@ pub mod error;
 pub mod fixture;
 pub mod formulate;
 pub mod model;
+pub mod pusher;
 pub mod settings;
 pub mod support;
 
 pub use error::Error;
 pub use fixture::Fixture;
 pub use model::{Model, Part};
+pub use pusher::{Disc, Pusher};
 pub use settings::SimSettings;
 pub use support::SupportDistribution;
 pub mod path;
