@@ -56,11 +56,23 @@ fn wait_for_lines(child: &mut Child, out: &Path, k: usize) {
     }
 }
 
-/// Kills the batch at seeded points until `KILLS` kills landed; returns how many.
+/// Interrupted attempt directories set aside so far (renamed by the resume after a kill).
+fn set_aside(out: &Path) -> usize {
+    std::fs::read_dir(out.join("trials")).map_or(0, |d| {
+        d.filter(|e| {
+            e.as_ref().is_ok_and(|e| e.file_name().to_string_lossy().contains(".discarded-"))
+        })
+        .count()
+    })
+}
+
+/// Kills the batch at seeded points until `KILLS` kills landed and at least one of them
+/// interrupted a trial (whether one does depends on the machine's timing; the rounds go on,
+/// bounded, until it has); returns how many kills landed.
 fn run_with_kills(batch: &Path, out: &Path, rng: &mut impl rand::Rng) -> usize {
     let mut kills = 0;
     for _round in 0..200 {
-        if kills >= KILLS {
+        if kills >= KILLS && set_aside(out) >= 1 {
             break;
         }
         let mut child = spawn(batch, out);
