@@ -16,6 +16,7 @@
 //! makes the motion unique and symmetric problems give symmetric answers.
 
 use super::contact::{Contact, ContactKind};
+use super::coulomb::Linearised;
 use mesopush_core::geom::{Vec2, cross};
 
 /// Index layout of a step problem.
@@ -33,9 +34,11 @@ pub const N_SUPPORTS: usize = 3;
 pub const N_FREE: usize = 3;
 
 impl Layout {
-    /// Total number of unknowns.
+    /// Total number of unknowns. With `n_directions = 0` the supports have no
+    /// complementarity variables (their friction is in the balance rows, [`crate::coulomb`]).
     pub const fn n(&self) -> usize {
-        N_FREE + 4 * self.n_contacts + N_SUPPORTS * self.n_directions + N_SUPPORTS
+        let supports = if self.n_directions > 0 { N_SUPPORTS * (self.n_directions + 1) } else { 0 };
+        N_FREE + 4 * self.n_contacts + supports
     }
     /// Index of contact `i`'s normal force.
     pub const fn normal(&self, i: usize) -> usize {
@@ -76,13 +79,17 @@ pub struct StepInputs<'a> {
     pub support_forces: [f64; N_SUPPORTS],
     /// Surface friction coefficient at each support.
     pub mu_surface: [f64; N_SUPPORTS],
-    /// Unit friction directions of the linearised cone.
+    /// Unit friction directions of the linearised cones, support after support (the same
+    /// number for each; see [`crate::cone`]).
     pub directions: &'a [Vec2],
     /// Viscous regularisation of the support friction, part weights per µm of support
     /// displacement (see [`crate::SimSettings::support_viscosity`]).
     pub viscosity: f64,
     /// Probe compliance along its contact normal, µm per part weight.
     pub probe_compliance_um: f64,
+    /// The supports' exact Coulomb friction linearised at a guess of the motion; when given,
+    /// `directions` is empty and the supports get no complementarity rows.
+    pub coulomb: Option<Linearised>,
 }
 
 /// Wrench (fx, fy, τ/L) of a unit force `f` applied at `r` from the COM.
@@ -104,7 +111,9 @@ pub struct StepProblem {
 impl StepProblem {
     /// Fills the buffers for `inp`; reuses their capacity.
     pub fn build(&mut self, inp: &StepInputs<'_>) -> Layout {
-        let lay = Layout { n_contacts: inp.contacts.len(), n_directions: inp.directions.len() };
+        debug_assert!(inp.directions.len() % N_SUPPORTS == 0, "one set per support");
+        let n_directions = inp.directions.len() / N_SUPPORTS;
+        let lay = Layout { n_contacts: inp.contacts.len(), n_directions };
         let n = lay.n();
         self.m.clear();
         self.m.resize(n * n, 0.0);
@@ -131,6 +140,14 @@ impl StepProblem {
                 }
             }
         }
+        if let Some(l) = &inp.coulomb {
+            for a in 0..N_FREE {
+                for b in 0..N_FREE {
+                    m[a * n + b] += l.h[a][b];
+                }
+                self.q[a] = -l.rhs[a];
+            }
+        }
         for (i, (c, mu)) in inp.contacts.iter().enumerate() {
             let r = c.point - inp.com;
             let t = Vec2::new(-c.normal.y, c.normal.x);
@@ -149,8 +166,9 @@ impl StepProblem {
                 m[lay.normal(i) * n + lay.normal(i)] = inp.probe_compliance_um;
             }
         }
-        for s in 0..N_SUPPORTS {
-            for (j, d) in inp.directions.iter().enumerate() {
+        for s in (0..N_SUPPORTS).filter(|_| n_directions > 0) {
+            let set = &inp.directions[s * n_directions..(s + 1) * n_directions];
+            for (j, d) in set.iter().enumerate() {
                 let row = lay.support_friction(s, j);
                 couple(m, row, wrench(&inp.supports[s], d, inp.char_len_um));
                 m[row * n + lay.support_sigma(s)] = 1.0;
@@ -193,7 +211,7 @@ mod tests {
             normal: Vec2::new(1.0, 0.0),
             gap_um: 2.0,
         };
-        let dirs = cone_directions(8);
+        let dirs: Vec<Vec2> = (0..N_SUPPORTS).flat_map(|_| cone_directions(8)).collect();
         let inp = StepInputs {
             contacts: &[(contact, 0.8)],
             com: Vec2::zeros(),
@@ -205,6 +223,7 @@ mod tests {
             directions: &dirs,
             viscosity: 0.0,
             probe_compliance_um: 0.0,
+            coulomb: None,
         };
         let mut p = StepProblem::default();
         let lay = p.build(&inp);

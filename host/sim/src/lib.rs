@@ -7,7 +7,9 @@
 //! Never on vision, trial logs, the rig or anything above them.
 
 pub mod advance;
+pub mod cone;
 pub mod contact;
+pub mod coulomb;
 pub mod effects;
 pub mod error;
 pub mod fixture;
@@ -21,7 +23,7 @@ pub use error::Error;
 pub use fixture::Fixture;
 pub use model::{Model, Part};
 pub use pusher::{Disc, Pusher};
-pub use settings::SimSettings;
+pub use settings::{SimSettings, SupportFriction};
 pub use support::SupportDistribution;
 pub mod path;
 pub mod plan;

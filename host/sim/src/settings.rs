@@ -8,8 +8,21 @@ use serde::{Deserialize, Serialize};
 pub struct SimSettings {
     /// Probe travel per time step while the probe is near the peg, µm. Default 5.
     pub step_um: f64,
-    /// Number of directions of the linearised friction cone at each support. Default 8.
+    /// Number of directions of the linearised friction cone at each support (the paper's
+    /// n_d). Default 8.
     pub n_directions: usize,
+    /// Friction at the supports: `coulomb` (default), the circular cone solved exactly by
+    /// Newton's method (`coulomb` module); or `polygon`, the paper's `n_directions` force
+    /// directions in the part's body frame (`cone` module).
+    pub support_friction: SupportFriction,
+    /// Slip speed regularisation of the exact friction, as a fraction of `step_um`: a
+    /// support creeps at most this far per step where Coulomb says it sticks. Default 1e-3.
+    pub slip_regularisation: f64,
+    /// Newton's method stops when the part's motion changes by less than this fraction of
+    /// `step_um` (µm, and µm at the characteristic length for rotation). Default 1e-9.
+    pub newton_tol: f64,
+    /// Newton iterations allowed per step before the step fails. Default 50.
+    pub newton_iterations: usize,
     /// Contacts whose gap is below this enter the step's problem ahead of touching, µm
     /// (Stewart–Trinkle style, so fast approach never tunnels). Default 30.
     pub contact_margin_um: f64,
@@ -29,11 +42,25 @@ pub struct SimSettings {
     pub probe_compliance_um: f64,
 }
 
+/// How the supports' friction cone is modelled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SupportFriction {
+    /// The circular Coulomb cone, exact (Newton's method on the step).
+    Coulomb,
+    /// The paper's polygonal cone with `n_directions` directions in the body frame.
+    Polygon,
+}
+
 impl Default for SimSettings {
     fn default() -> Self {
         Self {
             step_um: 5.0,
             n_directions: 8,
+            support_friction: SupportFriction::Coulomb,
+            slip_regularisation: 1e-3,
+            newton_tol: 1e-9,
+            newton_iterations: 50,
             contact_margin_um: 30.0,
             penetration_tol_um: 1.0,
             max_steps: 200_000,
@@ -52,6 +79,17 @@ impl SimSettings {
         }
         if !(3..=64).contains(&self.n_directions) {
             return Err(Error::invalid("n_directions", "must be between 3 and 64"));
+        }
+        let e = self.slip_regularisation;
+        if !(e.is_finite() && e > 0.0 && e <= 0.1) {
+            return Err(Error::invalid("slip_regularisation", format!("{e} must be in (0, 0.1]")));
+        }
+        let t = self.newton_tol;
+        if !(t.is_finite() && t > 0.0 && t <= 1e-3) {
+            return Err(Error::invalid("newton_tol", format!("{t} must be in (0, 1e-3]")));
+        }
+        if !(1..=1000).contains(&self.newton_iterations) {
+            return Err(Error::invalid("newton_iterations", "must be in 1..=1000"));
         }
         if !(self.contact_margin_um.is_finite() && self.contact_margin_um > 0.0) {
             return Err(Error::invalid("contact_margin_um", "must be > 0"));

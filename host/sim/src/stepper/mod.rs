@@ -1,14 +1,17 @@
 //! One quasi-static time step: find the contacts, build the mixed LCP, solve it and move the
 //! peg. The probe is position-controlled; the peg moves only through its contacts.
 
+mod solve;
+
+use super::cone::SupportCones;
 use super::contact::{Contact, ContactKind, probe_contact, wall_contacts};
 use super::fixture::Fixture;
-use super::formulate::{Layout, N_SUPPORTS, StepInputs, StepProblem, cone_directions};
+use super::formulate::{Layout, N_SUPPORTS, StepProblem};
 use super::model::Model;
 use super::settings::SimSettings;
 use crate::Error;
 use mesopush_core::geom::{Pose, Vec2};
-use mesopush_lcp::{LcpSettings, LcpSolver, MlcpProblem};
+use mesopush_lcp::{LcpSettings, LcpSolver};
 
 /// The simulated world's state.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,6 +43,25 @@ pub struct StepInfo {
     pub substeps: usize,
     /// LCP pivots used.
     pub pivots: usize,
+    /// LCP solves of the step (Newton iterations of the exact support friction; 1 with the
+    /// polygonal cone).
+    pub newton_iterations: usize,
+    /// Newton's method stalled and the step was solved with polygonal cones turned against
+    /// the best iterate's slips (see `solve_aligned`).
+    pub newton_fallback: bool,
+}
+
+/// The active set of the last solve of one problem shape, with the contacts it was for.
+#[derive(Debug, Clone, Default)]
+struct WarmStart {
+    active: Vec<bool>,
+    kinds: Vec<ContactKind>,
+}
+
+impl WarmStart {
+    fn new(capacity: usize) -> Self {
+        Self { active: Vec::with_capacity(capacity), kinds: Vec::with_capacity(16) }
+    }
 }
 
 /// Contact mode after a step.
@@ -61,14 +83,20 @@ pub struct Simulator {
     fixture: Fixture,
     settings: SimSettings,
     support_forces: [f64; N_SUPPORTS],
-    directions: Vec<Vec2>,
+    cones: SupportCones,
+    /// The last step's motion, the peg pose it ended at and the probe travel it took:
+    /// Newton's first guess for a step that starts there (a replay's steps chain; any other
+    /// step starts from the probe's displacement). Only the starting point: the answer is
+    /// the same to `newton_tol`.
+    newton_carry: Option<(Pose, [f64; 3], f64)>,
+    z: Vec<f64>,
     char_len_um: f64,
     problem: StepProblem,
     solver: LcpSolver,
     contacts: Vec<(Contact, f64)>,
     scratch: Vec<Contact>,
-    warm: Vec<bool>,
-    warm_kinds: Vec<ContactKind>,
+    /// The last active sets, one per problem shape (polygonal cones, exact friction).
+    warm: [WarmStart; 2],
     probe_speed_um_s: f64,
     /// Each support's sliding speed over the last steps, µm/s (speed-dependent friction).
     support_slip_um_s: [f64; N_SUPPORTS],
@@ -83,7 +111,7 @@ impl Simulator {
         }
         settings.validate()?;
         let support_forces = model.validate()?;
-        let directions = cone_directions(settings.n_directions);
+        let cones = SupportCones::new(settings.n_directions);
         let char_len_um = model.part.char_length_um();
         let capacity = Layout { n_contacts: 16, n_directions: settings.n_directions }.n();
         Ok(Self {
@@ -91,14 +119,15 @@ impl Simulator {
             fixture,
             settings,
             support_forces,
-            directions,
+            cones,
+            newton_carry: None,
+            z: Vec::with_capacity(capacity),
             char_len_um,
             problem: StepProblem::default(),
             solver: LcpSolver::new(capacity, LcpSettings::default()),
             contacts: Vec::with_capacity(16),
             scratch: Vec::with_capacity(16),
-            warm: Vec::with_capacity(capacity),
-            warm_kinds: Vec::with_capacity(16),
+            warm: [WarmStart::new(capacity), WarmStart::new(capacity)],
             probe_speed_um_s: 0.0,
             support_slip_um_s: [0.0; N_SUPPORTS],
         })
@@ -173,6 +202,8 @@ impl Simulator {
         }
         acc.solved_lcp |= info.solved_lcp;
         acc.pivots += info.pivots;
+        acc.newton_iterations += info.newton_iterations;
+        acc.newton_fallback |= info.newton_fallback;
         acc.substeps += 1;
         acc.penetration_um = acc.penetration_um.max(pen);
         acc.active = info.active;
@@ -264,39 +295,9 @@ impl Simulator {
         wall_contacts(peg, &self.fixture.walls, margin, &mut self.scratch);
         self.contacts.extend(self.scratch.iter().map(|c| (*c, self.model.mu_wall)));
         let supports = self.model.support.points().map(|p| state.peg.rotate(&p));
-        let inputs = StepInputs {
-            contacts: &self.contacts,
-            com: state.peg.position(),
-            char_len_um: self.char_len_um,
-            probe_delta_um: delta_um,
-            supports,
-            support_forces: self.support_forces,
-            mu_surface: self.surface_friction(&state.peg),
-            directions: &self.directions,
-            viscosity: self.settings.support_viscosity / self.settings.step_um,
-            probe_compliance_um: self.settings.probe_compliance_um,
-        };
-        let lay = self.problem.build(&inputs);
-        let problem = MlcpProblem { n_free: 3, n: lay.n(), m: &self.problem.m, q: &self.problem.q };
-        // Warm start from the previous step's active set when the contacts are the same ones
-        // (same count and kinds, in order); the solver verifies the guess and falls back to
-        // Lemke when it does not hold. Deterministic: the guess is a function of the history.
-        let same = self.warm.len() == lay.n()
-            && self.warm_kinds.len() == self.contacts.len()
-            && self.warm_kinds.iter().zip(&self.contacts).all(|(k, (c, _))| *k == c.kind);
-        let sol = if same {
-            self.solver.solve_warm(&problem, &self.warm)
-        } else {
-            self.solver.solve(&problem)
-        }
-        .map_err(Error::Lcp)?;
-        self.warm.clear();
-        self.warm.extend_from_slice(sol.active);
-        self.warm_kinds.clear();
-        self.warm_kinds.extend(self.contacts.iter().map(|(c, _)| c.kind));
-        let z = sol.z;
+        let lay = self.solve_aligned(state, &supports, delta_um, &mut info)?;
+        let z = &self.z;
         info.solved_lcp = true;
-        info.pivots = sol.pivots;
         info.probe_force = z[lay.normal(0)];
         info.probe_friction = z[lay.planar_friction(0, 0)] - z[lay.planar_friction(0, 1)];
         info.probe_sliding = z[lay.planar_sigma(0)] > ACTIVE_EPS;

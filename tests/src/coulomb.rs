@@ -1,0 +1,339 @@
+//! An independent quasi-static pusher with exact Coulomb friction: the reference the
+//! project's simulator is checked against. It shares no code, types or defaults with the
+//! mesopush crates (its own vectors, polygons and solver), so agreement is evidence, not
+//! self-consistency.
+//!
+//! Model: a rigid convex part on a plane, carried by point supports with known normal forces
+//! `Nᵢ` and friction `μᵢ` (Coulomb: a sliding support's force is exactly `−μᵢNᵢ·v̂ᵢ`, the
+//! circle, not a polygon), pushed by one rigid disc with contact friction `μₚ`. Quasi-static:
+//! the pusher's contact force balances the support forces (force and moment). Each pusher
+//! increment `δp` is solved for the part's increment `(dx, dy, dθ)` and the contact force
+//! `(fₙ, fₜ)` by Newton's method on the balance and contact equations, once for a sticking and
+//! once for each sliding contact; the mode whose solution satisfies its own inequalities is
+//! taken. Slip directions are regularised below `slip_eps` (a tiny fraction of the step).
+
+/// A plane vector.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct V2 {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+}
+
+impl V2 {
+    /// (x, y).
+    pub const fn new(x: f64, y: f64) -> Self {
+        Self { x, y }
+    }
+    fn add(self, o: V2) -> V2 {
+        V2::new(self.x + o.x, self.y + o.y)
+    }
+    fn sub(self, o: V2) -> V2 {
+        V2::new(self.x - o.x, self.y - o.y)
+    }
+    fn scale(self, k: f64) -> V2 {
+        V2::new(self.x * k, self.y * k)
+    }
+    fn dot(self, o: V2) -> f64 {
+        self.x * o.x + self.y * o.y
+    }
+    fn cross(self, o: V2) -> f64 {
+        self.x * o.y - self.y * o.x
+    }
+    fn len(self) -> f64 {
+        self.x.hypot(self.y)
+    }
+    /// Rotated by `a` rad.
+    pub fn rot(self, a: f64) -> V2 {
+        let (s, c) = a.sin_cos();
+        V2::new(c * self.x - s * self.y, s * self.x + c * self.y)
+    }
+}
+
+/// The part: outline and supports in its body frame (origin at the centre of mass).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Part {
+    /// Convex outline, counter-clockwise.
+    pub outline: Vec<V2>,
+    /// Support points.
+    pub supports: Vec<V2>,
+    /// Normal force at each support (they sum to the weight).
+    pub normal: Vec<f64>,
+    /// Friction coefficient at each support.
+    pub mu: Vec<f64>,
+}
+
+impl Part {
+    /// Normal forces of three supports carrying a unit weight at the origin (statics).
+    pub fn three_point(outline: Vec<V2>, supports: [V2; 3], mu: f64) -> Self {
+        let [a, b, c] = supports;
+        // N_a + N_b + N_c = 1 and Σ N r = 0: barycentric coordinates of the origin.
+        let area = (b.sub(a)).cross(c.sub(a));
+        let na = b.cross(c) / area;
+        let nb = c.cross(a) / area;
+        let nc = a.cross(b) / area;
+        Self { outline, supports: supports.to_vec(), normal: vec![na, nb, nc], mu: vec![mu; 3] }
+    }
+}
+
+/// Pose of the part: position of the centre of mass and orientation.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pose {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// θ, rad.
+    pub theta: f64,
+}
+
+/// The disc pusher and the contact friction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pusher {
+    /// Disc radius.
+    pub radius: f64,
+    /// Part–pusher friction.
+    pub mu: f64,
+}
+
+/// Contact between the disc at `p` and the part at `pose`: (gap, outward unit normal of the
+/// part at the closest point, closest point).
+fn contact(part: &Part, pose: &Pose, p: V2, radius: f64) -> (f64, V2, V2) {
+    let world: Vec<V2> =
+        part.outline.iter().map(|v| v.rot(pose.theta).add(V2::new(pose.x, pose.y))).collect();
+    let n = world.len();
+    let mut best = (f64::INFINITY, V2::default(), V2::default());
+    for i in 0..n {
+        let (a, b) = (world[i], world[(i + 1) % n]);
+        let ab = b.sub(a);
+        let t = (p.sub(a).dot(ab) / ab.dot(ab)).clamp(0.0, 1.0);
+        let q = a.add(ab.scale(t));
+        let d = p.sub(q).len();
+        if d < best.0 {
+            let edge_normal = V2::new(ab.y, -ab.x).scale(1.0 / ab.len());
+            let normal =
+                if t > 0.0 && t < 1.0 || d < 1e-12 { edge_normal } else { p.sub(q).scale(1.0 / d) };
+            best = (d, normal, q);
+        }
+    }
+    let inside = world.iter().enumerate().all(|(i, a)| {
+        let b = world[(i + 1) % n];
+        b.sub(*a).cross(p.sub(*a)) >= 0.0
+    });
+    let signed = if inside { -best.0 } else { best.0 };
+    (signed - radius, best.1, best.2)
+}
+
+/// Settings of the reference.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Pusher travel per increment.
+    pub step: f64,
+    /// Slip speeds below this (per increment) are regularised.
+    pub slip_eps: f64,
+}
+
+/// The residual of the balance and contact equations for unknowns
+/// `u = [dx, dy, dθ, fₙ, fₜ]` in contact mode `mode` (0 stick, ±1 slide).
+fn residual(part: &Part, pose: &Pose, c: &Ctx, u: &[f64; 5], mode: i32, eps: f64) -> [f64; 5] {
+    let [dx, dy, dth, fn_, ft] = *u;
+    let (mut fx, mut fy, mut tau) = (0.0, 0.0, 0.0);
+    for i in 0..part.supports.len() {
+        let r = part.supports[i].rot(pose.theta);
+        let v = V2::new(dx - dth * r.y, dy + dth * r.x);
+        let k = part.mu[i] * part.normal[i] / (v.dot(v) + eps * eps).sqrt();
+        let f = v.scale(-k);
+        fx += f.x;
+        fy += f.y;
+        tau += r.cross(f);
+    }
+    let fp = c.n.scale(-fn_).add(c.t.scale(ft));
+    let rc = c.point.sub(V2::new(pose.x, pose.y));
+    let vc = V2::new(dx - dth * rc.y, dy + dth * rc.x);
+    let rel = c.dp.sub(vc);
+    let kin_n = rel.dot(c.n.scale(-1.0)) - c.close;
+    let kin_t = match mode {
+        0 => rel.dot(c.t),
+        s => ft - f64::from(s) * c.mu * fn_,
+    };
+    [fx + fp.x, fy + fp.y, tau + rc.cross(fp), kin_n, kin_t]
+}
+
+struct Ctx {
+    n: V2,
+    t: V2,
+    point: V2,
+    dp: V2,
+    close: f64,
+    mu: f64,
+}
+
+fn solve5(a: [[f64; 5]; 5], b: [f64; 5]) -> Option<[f64; 5]> {
+    let mut m = [[0.0; 6]; 5];
+    for i in 0..5 {
+        m[i][..5].copy_from_slice(&a[i]);
+        m[i][5] = b[i];
+    }
+    for col in 0..5 {
+        let piv = (col..5).max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))?;
+        if m[piv][col].abs() < 1e-300 {
+            return None;
+        }
+        m.swap(col, piv);
+        let pivot_row = m[col];
+        for (r, row) in m.iter_mut().enumerate() {
+            if r != col {
+                let k = row[col] / pivot_row[col];
+                for (x, p) in row.iter_mut().zip(&pivot_row).skip(col) {
+                    *x -= k * p;
+                }
+            }
+        }
+    }
+    Some(std::array::from_fn(|i| m[i][5] / m[i][i]))
+}
+
+/// Newton's method from `start`; when it fails at the regularisation `eps`, it is walked
+/// down from a coarse regularisation (continuation), each solution starting the next.
+fn solve_mode(
+    part: &Part,
+    pose: &Pose,
+    c: &Ctx,
+    mode: i32,
+    eps: f64,
+    scale: f64,
+    start: [f64; 5],
+) -> Option<[f64; 5]> {
+    if let Some(u) = newton(part, pose, c, mode, eps, scale, start) {
+        return Some(u);
+    }
+    let mut u = start;
+    let mut e = 0.1 * scale;
+    while e > eps {
+        u = newton(part, pose, c, mode, e, scale, u)?;
+        e *= 0.1;
+    }
+    newton(part, pose, c, mode, eps, scale, u)
+}
+
+fn newton(
+    part: &Part,
+    pose: &Pose,
+    c: &Ctx,
+    mode: i32,
+    eps: f64,
+    scale: f64,
+    start: [f64; 5],
+) -> Option<[f64; 5]> {
+    let mut u = start;
+    let norm = |r: &[f64; 5]| r.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let mut r = residual(part, pose, c, &u, mode, eps);
+    for _ in 0..100 {
+        if norm(&r) < 1e-13 {
+            return Some(u);
+        }
+        let mut jac = [[0.0; 5]; 5];
+        for j in 0..5 {
+            // Differences well below the regularisation, so the stiff regime is resolved.
+            let hk = (1e-7 * scale).min(0.01 * eps);
+            let h = if j == 2 {
+                hk / 1000.0
+            } else if j < 2 {
+                hk
+            } else {
+                1e-9
+            };
+            let mut up = u;
+            up[j] += h;
+            let rp = residual(part, pose, c, &up, mode, eps);
+            for i in 0..5 {
+                jac[i][j] = (rp[i] - r[i]) / h;
+            }
+        }
+        let step = solve5(jac, r.map(|x| -x))?;
+        let mut t = 1.0;
+        loop {
+            let trial: [f64; 5] = std::array::from_fn(|i| u[i] + t * step[i]);
+            let rt = residual(part, pose, c, &trial, mode, eps);
+            if norm(&rt) < norm(&r) || t < 1e-6 {
+                u = trial;
+                r = rt;
+                break;
+            }
+            t *= 0.5;
+        }
+    }
+    (norm(&r) < 1e-9).then_some(u)
+}
+
+/// Moves the part at `pose` while the pusher's centre goes from `from` to `to`; returns the
+/// part's pose after each increment (the last is the end pose).
+pub fn push(part: &Part, pusher: &Pusher, pose: Pose, from: V2, to: V2, s: &Settings) -> Vec<Pose> {
+    push_traced(part, pusher, pose, from, to, s).into_iter().map(|(p, _)| p).collect()
+}
+
+/// [`push`], with each increment's contact mode: `None` free, `Some(0)` stick, `Some(±1)`
+/// sliding along ±t, `Some(9)` no consistent mode (the part was left where it was).
+pub fn push_traced(
+    part: &Part,
+    pusher: &Pusher,
+    mut pose: Pose,
+    from: V2,
+    to: V2,
+    s: &Settings,
+) -> Vec<(Pose, Option<i32>)> {
+    let total = to.sub(from);
+    let n = (total.len() / s.step).ceil().max(1.0) as usize;
+    let dp = total.scale(1.0 / n as f64);
+    let mut p = from;
+    let mut out = Vec::with_capacity(n);
+    let mut last = [dp.x, dp.y, 0.0, 0.1, 0.0];
+    for _ in 0..n {
+        let (gap, normal, point) = contact(part, &pose, p, pusher.radius);
+        let approach = dp.dot(normal.scale(-1.0));
+        if gap > approach || approach <= 0.0 && gap >= 0.0 {
+            p = p.add(dp);
+            out.push((pose, None));
+            continue;
+        }
+        let c = Ctx {
+            n: normal,
+            t: V2::new(-normal.y, normal.x),
+            point,
+            dp,
+            close: gap.max(-s.step),
+            mu: pusher.mu,
+        };
+        let scale = s.step;
+        let mut chosen = None;
+        let mut chosen_mode = 9;
+        for mode in [0, 1, -1] {
+            let Some(u) = solve_mode(part, &pose, &c, mode, s.slip_eps, scale, last) else {
+                continue;
+            };
+            let (fn_, ft) = (u[3], u[4]);
+            let rc = c.point.sub(V2::new(pose.x, pose.y));
+            let vc = V2::new(u[0] - u[2] * rc.y, u[1] + u[2] * rc.x);
+            let slip = c.dp.sub(vc).dot(c.t);
+            let ok = fn_ >= -1e-12
+                && match mode {
+                    0 => ft.abs() <= pusher.mu * fn_ + 1e-9,
+                    m => slip * f64::from(m) >= -1e-9 * scale,
+                };
+            if ok {
+                chosen = Some(u);
+                chosen_mode = mode;
+                break;
+            }
+        }
+        let u = chosen.unwrap_or([0.0; 5]);
+        if chosen.is_some() {
+            last = u;
+        }
+        pose = Pose { x: pose.x + u[0], y: pose.y + u[1], theta: pose.theta + u[2] };
+        p = p.add(dp);
+        out.push((pose, Some(chosen_mode)));
+    }
+    out
+}
