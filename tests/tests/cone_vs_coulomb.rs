@@ -51,8 +51,7 @@ fn ours(offset: f64, travel: f64, friction: SupportFriction, n_directions: usize
     };
     let mut sim = Simulator::new(model, fixture, settings).unwrap();
     let l = LENGTH / 2.0;
-    let mut st =
-        SimState { peg: Pose::new(0.0, 0.0, 0.0), probe_um: Vec2::new(-l - RADIUS - 1.0, offset) };
+    let mut st = SimState::new(Pose::new(0.0, 0.0, 0.0), Vec2::new(-l - RADIUS - 1.0, offset));
     let n = (travel / 5.0).ceil() as usize;
     for _ in 0..n {
         sim.step(&mut st, Vec2::new(travel / n as f64, 0.0)).unwrap();

@@ -46,7 +46,7 @@ fn bad_batch_files_are_clear_errors() {
     let b = batch_file(tmp.path(), "trails = 3");
     let o = mesopush(&["batch", "run", b.to_str().unwrap(), "--out", "x"]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(2));
     assert!(err.contains("trails") && err.starts_with("error:"), "{err}");
     let b = batch_file(tmp.path(), "runner = \"warp\"");
     let o = mesopush(&["batch", "run", b.to_str().unwrap(), "--out", "x"]);

@@ -36,9 +36,9 @@ fn solved_file_reports_z_pivots_residual_and_timing() {
 }
 
 #[test]
-fn problem_without_solution_is_a_named_failure_with_exit_2() {
+fn problem_without_solution_is_a_negative_verdict_with_exit_1() {
     let out = run(&["--json"], &suite("lcp_Pang_isolated_sol_perturbed.dat"));
-    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(out.status.code(), Some(1));
     let v = json(&out);
     assert_eq!(v["status"], "no_solution_found");
     assert!(v["z"].is_null());
@@ -47,7 +47,7 @@ fn problem_without_solution_is_a_named_failure_with_exit_2() {
 #[test]
 fn block_storage_and_bad_files_are_clear_errors() {
     let out = run(&["--json"], &suite("lcp_ortiz_block.dat"));
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("lcp_ortiz_block.dat") && err.contains("sparse-block"), "{err}");
 
@@ -60,7 +60,7 @@ fn block_storage_and_bad_files_are_clear_errors() {
         let path = dir.path().join(name);
         std::fs::write(&path, text).unwrap();
         let out = run(&["--json"], &path);
-        assert_eq!(out.status.code(), Some(1), "{name}");
+        assert_eq!(out.status.code(), Some(2), "{name}");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(name) && err.contains(want), "{name}: {err}");
     }

@@ -7,7 +7,7 @@
 use crate::Error;
 use mesopush_core::geom::{Pose, Vec2};
 use mesopush_sim::fixture::rect;
-use mesopush_sim::{Fixture, Part, ProbePoint};
+use mesopush_sim::{Fixture, Part, ProbePoint, Pusher};
 use mesopush_trial::{Trial, files};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -32,8 +32,10 @@ pub struct TrialData {
     pub index: usize,
     /// The pushed part.
     pub part: Part,
-    /// Probe tip radius, µm.
+    /// Probe tip radius, µm (the imaged tip's; the largest disc of a several-disc pusher).
     pub probe_radius_um: f64,
+    /// The pusher (its discs).
+    pub pusher: Pusher,
     /// The fixture (an open plate when the trial declares none).
     pub fixture: Fixture,
     /// Commanded probe path.
@@ -109,6 +111,7 @@ impl TrialData {
             index,
             part: trial.meta.part.clone(),
             probe_radius_um: trial.meta.probe_radius_um,
+            pusher: Pusher::single(trial.meta.probe_radius_um),
             fixture: trial.meta.fixture.clone().unwrap_or_else(open_plate),
             cmd,
             frames,

@@ -27,6 +27,7 @@ pub mod fit;
 pub mod objective;
 pub mod options;
 pub mod predict;
+pub mod replay;
 pub mod report;
 pub mod residual;
 pub mod rig_batch;

@@ -10,7 +10,7 @@ use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
 use mesopush_sim::contact::closest_on_polygon;
 use mesopush_sim::effects::{Backlash, Effects, apply_scale_error, remove_scale_error, scale_pose};
 use mesopush_sim::{
-    Model, PathReplay, PathSample, ProbePoint, SimSettings, Simulator, follow_path,
+    Model, PathReplay, PathSample, ProbePoint, Pusher, SimSettings, Simulator, follow_path,
 };
 
 /// The predicted measurement of every frame of a trial.
@@ -31,6 +31,8 @@ pub struct Prediction {
 pub fn model_for_trial(model: &Model, data: &TrialData) -> Model {
     let mut m = model_for_index(model, data.index);
     m.probe_radius_um = data.probe_radius_um;
+    // A one-disc pusher is the model's `probe_radius_um`; only other pushers are spelled out.
+    m.pusher = (data.pusher != Pusher::single(data.probe_radius_um)).then(|| data.pusher.clone());
     m
 }
 
@@ -93,7 +95,7 @@ pub fn tip_path(fx: &Effects, cmd: &[ProbePoint]) -> Vec<ProbePoint> {
         return cmd.to_vec();
     }
     let mut b = Backlash::new(fx.backlash_um);
-    cmd.iter().map(|p| ProbePoint { t_s: p.t_s, probe_um: b.update(p.probe_um) }).collect()
+    cmd.iter().map(|p| ProbePoint { probe_um: b.update(p.probe_um), ..*p }).collect()
 }
 
 /// The probe counts as clear of the peg beyond this gap, µm: the peg rests there (pushing
@@ -159,7 +161,7 @@ fn rest_pose(data: &TrialData, clear: &[bool], k: usize) -> Pose {
 /// The path between `t0_s` and `t1_s`: the probe interpolated at `t0_s`, then every point
 /// after it up to and including `t1_s`.
 fn sub_path(path: &[ProbePoint], t0_s: f64, t1_s: f64) -> Vec<ProbePoint> {
-    let mut out = vec![ProbePoint { t_s: t0_s, probe_um: probe_at(path, t0_s) }];
+    let mut out = vec![mesopush_ident::data::pusher_at(path, t0_s)];
     out.extend(path.iter().filter(|p| p.t_s > t0_s && p.t_s <= t1_s).copied());
     out
 }
@@ -197,7 +199,13 @@ fn predict_with(
     let mut sim = Simulator::new(m, data.fixture.clone(), settings.clone())?;
     let compliance_um = sim.settings().probe_compliance_um;
     let polygon = sim.model().part.polygon().clone();
-    let mut replay = PathReplay { samples: Vec::new(), jams: 0, steps: 0, lcp_solves: 0 };
+    let mut replay = PathReplay {
+        samples: Vec::new(),
+        jams: 0,
+        steps: 0,
+        lcp_solves: 0,
+        start_separation_um: 0.0,
+    };
     let (starts, clear) = if restarts {
         restart_frames(data, &path, &polygon)
     } else {

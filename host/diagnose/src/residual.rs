@@ -328,6 +328,7 @@ mod tests {
             .map(|i| mesopush_sim::ProbePoint {
                 t_s: i as f64 * 0.01,
                 probe_um: mesopush_core::geom::Vec2::new(3.0 * i as f64, 0.0),
+                probe_theta_rad: 0.0,
             })
             .collect();
         TrialData {
@@ -335,6 +336,7 @@ mod tests {
             index: seed as usize,
             part: mesopush_sim::Model::default().part,
             probe_radius_um: 12.5,
+            pusher: mesopush_sim::Pusher::single(12.5),
             fixture: open_plate(),
             cmd,
             frames,

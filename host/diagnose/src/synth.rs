@@ -106,6 +106,7 @@ fn line(path: &mut Vec<ProbePoint>, to: Vec2, speed_um_s: f64) {
         path.push(ProbePoint {
             t_s: last.t_s + k as f64 * CMD_DT_S,
             probe_um: last.probe_um + (to - last.probe_um) * w,
+            probe_theta_rad: 0.0,
         });
     }
 }
@@ -113,7 +114,7 @@ fn line(path: &mut Vec<ProbePoint>, to: Vec2, speed_um_s: f64) {
 fn dwell(path: &mut Vec<ProbePoint>, s: f64) {
     let last = *path.last().expect("path starts with a point");
     for k in 1..=(s / CMD_DT_S).round() as usize {
-        path.push(ProbePoint { t_s: last.t_s + k as f64 * CMD_DT_S, probe_um: last.probe_um });
+        path.push(ProbePoint::new(last.t_s + k as f64 * CMD_DT_S, last.probe_um));
     }
 }
 
@@ -172,7 +173,7 @@ pub fn open_plate_path(
         rng.random_range(-0.3..0.3),
     );
     let r = model.part.char_length_um() + 200.0;
-    let mut path = vec![ProbePoint { t_s: 0.0, probe_um: start.position() + Vec2::new(r, 0.0) }];
+    let mut path = vec![ProbePoint::new(0.0, start.position() + Vec2::new(r, 0.0))];
     let mut peg = start;
     for _ in 0..strokes {
         let from = path.len() - 1;
@@ -234,6 +235,7 @@ pub fn write_trial(
         index,
         part: truth.part.clone(),
         probe_radius_um: truth.probe_radius_um,
+        pusher: truth.pusher(),
         fixture: open_plate(),
         cmd: cmd.clone(),
         frames,

@@ -127,13 +127,15 @@ fn a_slippery_patch_on_the_other_side_is_named() {
     assert!(after.xy_um2 < 0.3 * before.xy_um2, "seed {seed}: {before:?} -> {after:?}");
 }
 
-/// Support drift seed 12 of the confusion run (a small drift: 8.2 µm² held-out X,Y MSE): the
-/// nominal model refitted on all six trials reached the floor band (10.8 noise units against
-/// 15), and the adequacy rule alone called it `none`, a missed effect. The drift refitted on
-/// all six trials lowers that error 3.5× (3.1 units), so it is named.
+/// A small support drift whose nominal model, refitted on all six trials, reaches the floor
+/// band: the adequacy rule alone would call it `none`, a missed effect; the drift refitted on
+/// all six trials lowers that error, so it is named. Found as seed 12 of the confusion run
+/// with the paper's polygonal cone (10.8 noise units against 15); with the exact cone seed 12
+/// is no longer small (20.3 units, named anyway) and seed 15 is the first of 13–16 in this
+/// regime (11.6 units; seeds 13 and 14: 53 and 134 units).
 #[test]
 fn a_small_support_drift_survives_the_all_trial_refit() {
-    let seed = 12;
+    let seed = 15;
     let n = 6;
     let dir = tempfile::tempdir().unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);

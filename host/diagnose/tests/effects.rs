@@ -16,7 +16,7 @@ fn push_and_retract(model: Model) -> (Pose, Pose) {
     for w in pts.windows(2) {
         for k in 0..=100 {
             let x = w[0] + (w[1] - w[0]) * k as f64 / 100.0;
-            path.push(ProbePoint { t_s: t, probe_um: Vec2::new(x, 1200.0 + 100.0) });
+            path.push(ProbePoint::new(t, Vec2::new(x, 1200.0 + 100.0)));
             t += 0.01;
         }
     }

@@ -5,7 +5,7 @@
 
 use crate::Error;
 use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
-use mesopush_sim::{Fixture, Part, ProbePoint};
+use mesopush_sim::{Fixture, Part, ProbePoint, Pusher};
 use mesopush_trial::{PoseRow, Trial};
 
 /// One trial, ready to be simulated and scored.
@@ -15,8 +15,8 @@ pub struct IdentTrial {
     pub id: String,
     /// The pushed part.
     pub part: Part,
-    /// Probe tip radius, µm.
-    pub probe_radius_um: f64,
+    /// The pusher (its discs; the paper's probe is one 12.5 µm disc).
+    pub pusher: Pusher,
     /// Walls the peg may touch (none for unconstrained pushing).
     pub fixture: Fixture,
     /// Where the simulation starts: the tracked pose at rest before the probe touches (the
@@ -44,32 +44,50 @@ pub fn open_plate() -> Fixture {
 
 /// The probe position on `path` at `t_s` (linear between waypoints, clamped at the ends).
 pub fn probe_at(path: &[ProbePoint], t_s: f64) -> Vec2 {
+    pusher_at(path, t_s).probe_um
+}
+
+/// The pusher's waypoint on `path` at `t_s` (position and angle linear between waypoints,
+/// clamped at the ends).
+pub fn pusher_at(path: &[ProbePoint], t_s: f64) -> ProbePoint {
     let i = path.partition_point(|p| p.t_s <= t_s);
     if i == 0 {
-        return path[0].probe_um;
+        return ProbePoint { t_s, ..path[0] };
     }
     if i == path.len() {
-        return path[i - 1].probe_um;
+        return ProbePoint { t_s, ..path[i - 1] };
     }
     let (a, b) = (&path[i - 1], &path[i]);
     let dt = b.t_s - a.t_s;
     let f = if dt > 0.0 { (t_s - a.t_s) / dt } else { 1.0 };
-    a.probe_um + (b.probe_um - a.probe_um) * f
+    ProbePoint {
+        t_s,
+        probe_um: a.probe_um + (b.probe_um - a.probe_um) * f,
+        probe_theta_rad: a.probe_theta_rad + (b.probe_theta_rad - a.probe_theta_rad) * f,
+    }
 }
 
-/// Distance the probe must keep from the peg for a tracked pose to count as at rest, µm.
-const REST_GAP_UM: f64 = 5.0;
+/// Distance the pusher must keep from the peg for a tracked pose to count as at rest, µm,
+/// for the paper's peg; scaled with the part's size for any other part.
+const REST_GAP_PEG_UM: f64 = 5.0;
 
 /// The peg's start pose: the mean of the tracked poses before the probe first comes within
 /// [`REST_GAP_UM`] of the peg (the peg cannot move before it is touched), so tracking noise
 /// on the first frame does not bias every later prediction. Geometry only, no model.
-fn resting_pose(part: &Part, probe_radius_um: f64, poses: &[PoseRow], path: &[ProbePoint]) -> Pose {
+fn resting_pose(part: &Part, pusher: &Pusher, poses: &[PoseRow], path: &[ProbePoint]) -> Pose {
     let first = Pose::new(poses[0].x_um, poses[0].y_um, poses[0].theta_rad);
     let peg = part.polygon().transformed(&first);
+    let scale = part.char_length_um() / Part::default_peg().char_length_um();
+    let rest_gap_um = REST_GAP_PEG_UM * scale;
     let (mut sum, mut n) = ([0.0; 3], 0usize);
     for p in poses {
-        let probe = probe_at(path, p.t_us as f64 * 1e-6);
-        if n > 0 && peg.signed_distance(&probe) - probe_radius_um < REST_GAP_UM {
+        let w = pusher_at(path, p.t_us as f64 * 1e-6);
+        let at = Pose::new(w.probe_um.x, w.probe_um.y, w.probe_theta_rad);
+        let gap = pusher
+            .discs_at(&at)
+            .map(|(c, r)| peg.signed_distance(&c) - r)
+            .fold(f64::INFINITY, f64::min);
+        if n > 0 && gap < rest_gap_um {
             break;
         }
         sum = [sum[0] + p.x_um, sum[1] + p.y_um, sum[2] + p.theta_rad];
@@ -108,7 +126,7 @@ impl IdentTrial {
                 format!("{name}: the first tracked pose is after the probe path's end"),
             ));
         }
-        let mut trimmed = vec![ProbePoint { t_s: t0_s, probe_um: probe_at(&path, t0_s) }];
+        let mut trimmed = vec![pusher_at(&path, t0_s)];
         trimmed.extend(path.iter().filter(|p| p.t_s > t0_s).copied());
         let measured: Vec<(f64, Pose)> = poses[1..]
             .iter()
@@ -122,11 +140,12 @@ impl IdentTrial {
             ));
         }
         let part = trial.meta.part.clone();
-        let start = resting_pose(&part, trial.meta.probe_radius_um, poses, &path);
+        let pusher = Pusher::single(trial.meta.probe_radius_um);
+        let start = resting_pose(&part, &pusher, poses, &path);
         Ok(Self {
             id: trial.meta.trial_id.clone(),
             part,
-            probe_radius_um: trial.meta.probe_radius_um,
+            pusher,
             fixture: trial.meta.fixture.clone().unwrap_or_else(open_plate),
             start,
             path: trimmed,
@@ -156,10 +175,8 @@ mod tests {
 
     #[test]
     fn probe_is_interpolated_and_clamped() {
-        let path = [
-            ProbePoint { t_s: 0.0, probe_um: Vec2::new(0.0, 0.0) },
-            ProbePoint { t_s: 1.0, probe_um: Vec2::new(10.0, 0.0) },
-        ];
+        let path =
+            [ProbePoint::new(0.0, Vec2::new(0.0, 0.0)), ProbePoint::new(1.0, Vec2::new(10.0, 0.0))];
         assert_eq!(probe_at(&path, 0.5), Vec2::new(5.0, 0.0));
         assert_eq!(probe_at(&path, -1.0), Vec2::new(0.0, 0.0));
         assert_eq!(probe_at(&path, 2.0), Vec2::new(10.0, 0.0));

@@ -1,13 +1,14 @@
-//! A figure like the paper's Fig. 5: simulation against measurement for the best and the
-//! worst trial under the identified parameters. Per trial, a plan view (tracked and simulated
-//! outlines at start, middle and end; centre-of-mass paths; the probe path) over the
-//! orientation against time.
+//! Simulation against measurement, per trial a plan view (tracked and simulated outlines at
+//! start, middle and end; centre-of-mass paths; the pusher's path) over the orientation
+//! against time: the paper's Fig. 5 (best and worst trial under the identified parameters,
+//! [`draw_fig5`]) and `mesopush replay`'s figure ([`draw_tracks`]).
 
 use crate::Error;
 use crate::IdentTrial;
 use crate::score::{Candidate, Score, ScoreSettings, pose_at, simulate};
 use mesopush_core::geom::Pose;
 use mesopush_plot::{DrawResult, Figure, save};
+use mesopush_sim::{Part, ProbePoint};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -35,29 +36,71 @@ pub fn draw_fig5(
         .iter()
         .map(|p| {
             let (samples, _) = simulate(p.trial, c, settings)?;
-            Some(p.trial.measured.iter().map(|(t, _)| (*t, pose_at(&samples, *t))).collect())
+            let t0 = p.trial.path[0].t_s;
+            let at = p.trial.measured.iter().map(|(t, _)| (*t, pose_at(&samples, *t)));
+            Some(std::iter::once((t0, p.trial.start)).chain(at).collect())
         })
         .collect();
+    let tracks: Vec<TrackPanel<'_>> = panels
+        .iter()
+        .zip(sims)
+        .map(|(p, sim)| TrackPanel {
+            part: &p.trial.part,
+            path: &p.trial.path,
+            measured: std::iter::once((p.trial.path[0].t_s, p.trial.start))
+                .chain(p.trial.measured.iter().copied())
+                .collect(),
+            title: format!(
+                "{} trial {}: X,Y MSE {:.3} µm², θ MSE {:.5} deg²",
+                p.label,
+                p.trial.id,
+                p.score.xy_mse_um2,
+                p.score.theta_mse_deg2()
+            ),
+            sim,
+        })
+        .collect();
+    draw_tracks(&tracks, path)
+}
+
+/// One panel of a tracks figure: a trial's part, pusher path and measured poses, the
+/// simulated poses at the same times (`None`: the simulation failed; the panel stays
+/// empty), and a title.
+#[derive(Debug, Clone)]
+pub struct TrackPanel<'a> {
+    /// The pushed part.
+    pub part: &'a Part,
+    /// The pusher's path (its reference point).
+    pub path: &'a [ProbePoint],
+    /// Measured poses as (time s, pose), the start first.
+    pub measured: Vec<(f64, Pose)>,
+    /// Simulated poses at the measured times (the same length as `measured`).
+    pub sim: Option<Vec<(f64, Pose)>>,
+    /// The panel's title.
+    pub title: String,
+}
+
+/// Draws the panels side by side to `path` (`.png` or `.svg`).
+pub fn draw_tracks(panels: &[TrackPanel<'_>], path: &Path) -> Result<(), Error> {
     let size = (600 * panels.len().max(1) as u32, 800);
-    Ok(save(&Fig5 { panels, sims: &sims }, path, size)?)
+    Ok(save(&Tracks { panels }, path, size)?)
 }
 
-/// The panels with their simulated poses at the measured times (`None`: the simulation of
-/// that trial failed; its panel stays empty).
-struct Fig5<'a> {
-    panels: &'a [Fig5Trial<'a>],
-    sims: &'a [Option<Vec<(f64, Pose)>>],
+struct Tracks<'a> {
+    panels: &'a [TrackPanel<'a>],
 }
 
-impl Figure for Fig5<'_> {
+impl Figure for Tracks<'_> {
     fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult
     where
         DB::ErrorType: 'static,
     {
         area.fill(&WHITE)?;
         let cells = area.split_evenly((1, self.panels.len().max(1)));
-        for ((panel, sim), cell) in self.panels.iter().zip(self.sims).zip(cells) {
-            let Some(sim) = sim else { continue };
+        for (panel, cell) in self.panels.iter().zip(cells) {
+            let Some(sim) = panel.sim.as_ref().filter(|s| s.len() == panel.measured.len()) else {
+                continue;
+            };
             let (top, bottom) = cell.split_vertically(520);
             plan_view(&top, panel, sim)?;
             theta_view(&bottom, panel, sim)?;
@@ -76,52 +119,44 @@ fn outline(part: &mesopush_sim::Part, pose: &Pose) -> Vec<(f64, f64)> {
 
 fn plan_view<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    p: &Fig5Trial<'_>,
+    p: &TrackPanel<'_>,
     sim: &[(f64, Pose)],
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
 {
-    let t = p.trial;
-    let meas: Vec<Pose> = std::iter::once(t.start).chain(t.measured.iter().map(|m| m.1)).collect();
-    let mut pts: Vec<(f64, f64)> = t.path.iter().map(|q| (q.probe_um.x, q.probe_um.y)).collect();
+    let meas: Vec<Pose> = p.measured.iter().map(|m| m.1).collect();
+    let mut pts: Vec<(f64, f64)> = p.path.iter().map(|q| (q.probe_um.x, q.probe_um.y)).collect();
     for pose in meas.iter().chain(sim.iter().map(|s| &s.1)) {
-        pts.extend(outline(&t.part, pose));
+        pts.extend(outline(p.part, pose));
     }
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for (x, y) in &pts {
         (x0, x1, y0, y1) = (x0.min(*x), x1.max(*x), y0.min(*y), y1.max(*y));
     }
-    let half = 0.5 * (x1 - x0).max(y1 - y0) + 50.0;
+    // Equal aspect, with a margin of 5 % of the part's size.
+    let half = 0.5 * (x1 - x0).max(y1 - y0) + 0.05 * p.part.char_length_um();
     let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    let title = format!(
-        "{} trial {}: X,Y MSE {:.3} µm², θ MSE {:.5} deg²",
-        p.label,
-        t.id,
-        p.score.xy_mse_um2,
-        p.score.theta_mse_deg2()
-    );
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 16))
+        .caption(&p.title, ("sans-serif", 16))
         .margin(10)
         .x_label_area_size(30)
         .y_label_area_size(50)
         .build_cartesian_2d(cx - half..cx + half, cy + half..cy - half)?;
     chart.configure_mesh().x_desc("x [µm]").y_desc("y [µm] (down)").disable_mesh().draw()?;
-    let probe: Vec<(f64, f64)> = t.path.iter().map(|q| (q.probe_um.x, q.probe_um.y)).collect();
+    let probe: Vec<(f64, f64)> = p.path.iter().map(|q| (q.probe_um.x, q.probe_um.y)).collect();
     chart
         .draw_series(std::iter::once(PathElement::new(probe, BLACK.mix(0.5).stroke_width(1))))?
-        .label("probe")
+        .label("pusher (reference point)")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], BLACK.mix(0.5)));
     let n = meas.len() - 1;
     for k in [0, n / 2, n] {
         chart.draw_series(std::iter::once(PathElement::new(
-            outline(&t.part, &meas[k]),
+            outline(p.part, &meas[k]),
             BLUE.stroke_width(2),
         )))?;
-        let s = if k == 0 { t.start } else { sim[k - 1].1 };
         chart.draw_series(std::iter::once(PathElement::new(
-            outline(&t.part, &s),
+            outline(p.part, &sim[k].1),
             RED.stroke_width(1),
         )))?;
     }
@@ -141,17 +176,17 @@ where
 
 fn theta_view<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    p: &Fig5Trial<'_>,
+    p: &TrackPanel<'_>,
     sim: &[(f64, Pose)],
 ) -> DrawResult
 where
     DB::ErrorType: 'static,
 {
     let deg = |r: f64| r.to_degrees();
-    let meas: Vec<(f64, f64)> =
-        p.trial.measured.iter().map(|(t, q)| (*t, deg(q.theta_rad))).collect();
+    let meas: Vec<(f64, f64)> = p.measured.iter().map(|(t, q)| (*t, deg(q.theta_rad))).collect();
     let simd: Vec<(f64, f64)> = sim.iter().map(|(t, q)| (*t, deg(q.theta_rad))).collect();
-    let (t0, t1) = (p.trial.path[0].t_s, p.trial.path[p.trial.path.len() - 1].t_s);
+    let times = p.path.iter().map(|q| q.t_s).chain(p.measured.iter().map(|m| m.0));
+    let (t0, t1) = times.fold((f64::MAX, f64::MIN), |(a, b), t| (a.min(t), b.max(t)));
     let all = meas.iter().chain(&simd).map(|v| v.1);
     let (lo, hi) = all.fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
     let pad = 0.05 * (hi - lo).max(0.1);
@@ -161,7 +196,14 @@ where
         .y_label_area_size(50)
         .build_cartesian_2d(t0..t1, lo - pad..hi + pad)?;
     chart.configure_mesh().x_desc("t [s]").y_desc("θ [deg]").draw()?;
-    chart.draw_series(meas.iter().map(|v| Circle::new(*v, 2, BLUE.filled())))?;
-    chart.draw_series(std::iter::once(PathElement::new(simd, RED.stroke_width(2))))?;
+    chart
+        .draw_series(meas.iter().map(|v| Circle::new(*v, 2, BLUE.filled())))?
+        .label("tracked θ")
+        .legend(|(x, y)| Circle::new((x + 7, y), 3, BLUE.filled()));
+    chart
+        .draw_series(std::iter::once(PathElement::new(simd, RED.stroke_width(2))))?
+        .label("simulated θ")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED.stroke_width(2)));
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.8)).draw()?;
     Ok(())
 }

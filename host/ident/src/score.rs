@@ -82,7 +82,8 @@ pub fn model_for(trial: &IdentTrial, c: &Candidate, settings: &ScoreSettings) ->
         support: c.support.clone(),
         mu_probe: c.mu_probe,
         mu_wall: settings.mu_wall,
-        probe_radius_um: trial.probe_radius_um,
+        probe_radius_um: trial.pusher.max_radius_um(),
+        pusher: Some(trial.pusher.clone()),
         effects: Default::default(),
     }
 }

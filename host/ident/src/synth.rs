@@ -126,7 +126,7 @@ fn waypoints(spec: &SynthSpec, pose: &Pose, push: &PushSpec) -> Result<Vec<Probe
     let gap = spec.clearance_um + spec.model.probe_radius_um;
     let (mut p, mut dir) = approach(spec.model.part.polygon(), pose, push, gap)?;
     let step_um = spec.speed_um_s * spec.setpoint_period_us as f64 * 1e-6;
-    let mut out = vec![ProbePoint { t_s: 0.0, probe_um: p }];
+    let mut out = vec![ProbePoint::new(0.0, p)];
     let mut t_us = 0i64;
     for (k, (len, turn)) in push.legs.iter().enumerate() {
         let (s, c) = turn.sin_cos();
@@ -136,7 +136,7 @@ fn waypoints(spec: &SynthSpec, pose: &Pose, push: &PushSpec) -> Result<Vec<Probe
         for _ in 0..n {
             p += dir * (len / n as f64);
             t_us += spec.setpoint_period_us;
-            out.push(ProbePoint { t_s: t_us as f64 * 1e-6, probe_um: p });
+            out.push(ProbePoint::new(t_us as f64 * 1e-6, p));
         }
     }
     Ok(out)

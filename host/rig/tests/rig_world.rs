@@ -55,7 +55,7 @@ fn a_push_that_reverses_between_exposures_moves_the_peg_all_the_way() {
         drive(&mut w, &mut t_us, turn, turn + Vec2::new(50.0, 0.0));
         let mut sim =
             Simulator::new(Model::default(), Fixture::paper(), SimSettings::default()).unwrap();
-        let mut st = SimState { peg, probe_um: start };
+        let mut st = SimState::new(peg, start);
         let mut budget = 100_000;
         advance(&mut sim, &mut st, turn - start, &mut budget, |_, _, _| {}).unwrap();
         let (got, want) = (w.peg(), st.peg);

@@ -28,11 +28,27 @@ pub fn advance(
     st: &mut SimState,
     delta_um: Vec2,
     budget: &mut usize,
+    on_step: impl FnMut(&SimState, &StepInfo, f64),
+) -> Result<SegmentEnd, Error> {
+    advance_turning(sim, st, (delta_um, 0.0), budget, on_step)
+}
+
+/// As [`advance`], with the pusher also turning by `delta.1` rad about its reference point
+/// while its reference point moves by `delta.0` µm, both in proportion. Travel (`done_um`,
+/// steps, free jumps) is measured as [`Simulator::pusher_travel_um`]: the most any pusher
+/// point moves.
+pub fn advance_turning(
+    sim: &mut Simulator,
+    st: &mut SimState,
+    delta: (Vec2, f64),
+    budget: &mut usize,
     mut on_step: impl FnMut(&SimState, &StepInfo, f64),
 ) -> Result<SegmentEnd, Error> {
     let (step_um, margin) = (sim.settings().step_um, sim.settings().contact_margin_um);
-    let len = delta_um.norm();
+    let (delta_um, d_theta_rad) = delta;
+    let len = sim.pusher_travel_um(delta_um, d_theta_rad);
     let dir = delta_um / len.max(f64::MIN_POSITIVE);
+    let turn = d_theta_rad / len.max(f64::MIN_POSITIVE);
     let mut done = 0.0;
     while len - done > 1e-9 {
         if *budget == 0 {
@@ -45,11 +61,12 @@ pub fn advance(
         let info = if free > step_um {
             let d = free.min(remaining);
             st.probe_um += dir * d;
+            st.probe_theta_rad += turn * d;
             done += d;
             StepInfo::default()
         } else {
             let d = step_um.min(remaining);
-            match sim.step(st, dir * d) {
+            match sim.step_turning(st, dir * d, turn * d) {
                 Ok(info) => {
                     done += d;
                     info

@@ -71,8 +71,8 @@ pub struct StepInputs<'a> {
     pub com: Vec2,
     /// Characteristic length L scaling rotations, µm.
     pub char_len_um: f64,
-    /// Probe displacement over the step, µm.
-    pub probe_delta_um: Vec2,
+    /// The pusher's rigid motion over the step.
+    pub pusher: PusherMotion,
     /// Support points relative to the COM, rotated into the fixture frame, µm.
     pub supports: [Vec2; N_SUPPORTS],
     /// Known support normal forces (weights).
@@ -90,6 +90,34 @@ pub struct StepInputs<'a> {
     /// The supports' exact Coulomb friction linearised at a guess of the motion; when given,
     /// `directions` is empty and the supports get no complementarity rows.
     pub coulomb: Option<Linearised>,
+}
+
+/// A pusher's rigid motion over one step: its reference point `origin_um` moves by `d_um`
+/// and the pusher turns by `d_theta_rad` about it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PusherMotion {
+    /// The reference point at the step's start, fixture frame, µm.
+    pub origin_um: Vec2,
+    /// Its displacement, µm.
+    pub d_um: Vec2,
+    /// The turn, rad.
+    pub d_theta_rad: f64,
+}
+
+impl PusherMotion {
+    /// A translation by `d_um` (the paper's probe).
+    pub fn translation(d_um: Vec2) -> Self {
+        Self { origin_um: Vec2::zeros(), d_um, d_theta_rad: 0.0 }
+    }
+
+    /// Displacement of the pusher's material point at `p` (first order in the turn), µm.
+    pub fn at(&self, p: &Vec2) -> Vec2 {
+        if self.d_theta_rad == 0.0 {
+            return self.d_um;
+        }
+        let r = p - self.origin_um;
+        self.d_um + Vec2::new(-r.y, r.x) * self.d_theta_rad
+    }
 }
 
 /// Wrench (fx, fy, τ/L) of a unit force `f` applied at `r` from the COM.
@@ -151,7 +179,8 @@ impl StepProblem {
         for (i, (c, mu)) in inp.contacts.iter().enumerate() {
             let r = c.point - inp.com;
             let t = Vec2::new(-c.normal.y, c.normal.x);
-            let du = if c.kind == ContactKind::Probe { inp.probe_delta_um } else { Vec2::zeros() };
+            let is_probe = matches!(c.kind, ContactKind::Probe(_));
+            let du = if is_probe { inp.pusher.at(&c.point) } else { Vec2::zeros() };
             couple(m, lay.normal(i), wrench(&r, &c.normal, inp.char_len_um));
             self.q[lay.normal(i)] = c.gap_um - c.normal.dot(&du);
             for (k, sign) in [1.0, -1.0].into_iter().enumerate() {
@@ -162,7 +191,7 @@ impl StepProblem {
                 self.q[row] = -sign * t.dot(&du);
             }
             m[lay.planar_sigma(i) * n + lay.normal(i)] = *mu;
-            if c.kind == ContactKind::Probe {
+            if is_probe {
                 m[lay.normal(i) * n + lay.normal(i)] = inp.probe_compliance_um;
             }
         }
@@ -206,7 +235,7 @@ mod tests {
     #[test]
     fn equality_block_is_the_transpose_of_the_gap_rows() {
         let contact = Contact {
-            kind: ContactKind::Probe,
+            kind: ContactKind::Probe(0),
             point: Vec2::new(-500.0, 100.0),
             normal: Vec2::new(1.0, 0.0),
             gap_um: 2.0,
@@ -216,7 +245,7 @@ mod tests {
             contacts: &[(contact, 0.8)],
             com: Vec2::zeros(),
             char_len_um: 1000.0,
-            probe_delta_um: Vec2::new(5.0, 0.0),
+            pusher: PusherMotion::translation(Vec2::new(5.0, 0.0)),
             supports: [Vec2::new(-100.0, -100.0), Vec2::new(-100.0, 100.0), Vec2::new(200.0, 0.0)],
             support_forces: [0.25, 0.25, 0.5],
             mu_surface: [0.3; 3],

@@ -5,6 +5,7 @@
 use super::support::SupportDistribution;
 use crate::Error;
 use crate::effects::Effects;
+use crate::pusher::Pusher;
 use mesopush_core::geom::{ConvexPolygon, Vec2};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -86,8 +87,13 @@ pub struct Model {
     pub mu_probe: f64,
     /// Part–fixture friction coefficient. Default 0.25.
     pub mu_wall: f64,
-    /// Probe tip radius, µm (0 allowed). Default 12.5 (a 25 µm tip).
+    /// Probe tip radius, µm (0 allowed). Default 12.5 (a 25 µm tip). The pusher is one
+    /// disc of this radius unless `pusher` is given.
     pub probe_radius_um: f64,
+    /// The pusher's discs (`[[pusher.discs]]`; [`crate::pusher`]), when it is not the
+    /// single disc of `probe_radius_um` (a two-finger hand, say). Absent: one disc.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pusher: Option<Pusher>,
     /// Effects beyond the nominal model (`[effects]` table; see [`crate::effects`]). Absent
     /// from a TOML = all off, and then results are bit-identical to the nominal model's.
     #[serde(default, skip_serializing_if = "Effects::is_none")]
@@ -106,6 +112,7 @@ impl Default for Model {
             mu_probe: 0.8,
             mu_wall: 0.25,
             probe_radius_um: 12.5,
+            pusher: None,
             effects: Effects::default(),
         }
     }
@@ -120,14 +127,22 @@ impl Model {
             }
         }
         let r = self.probe_radius_um;
-        if !(r.is_finite() && (0.0..=500.0).contains(&r)) {
+        if !(r.is_finite() && r >= 0.0) {
             return Err(Error::invalid(
                 "model",
-                format!("probe_radius_um = {r} must be in [0, 500]"),
+                format!("probe_radius_um = {r} must be finite and ≥ 0"),
             ));
+        }
+        if let Some(p) = &self.pusher {
+            p.validate()?;
         }
         self.effects.validate()?;
         self.support.validate(self.part.polygon())
+    }
+
+    /// The pusher the simulator moves: `pusher`, else one disc of `probe_radius_um`.
+    pub fn pusher(&self) -> Pusher {
+        self.pusher.clone().unwrap_or_else(|| Pusher::single(self.probe_radius_um))
     }
 
     /// Loads and validates a model TOML.

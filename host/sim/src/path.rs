@@ -3,7 +3,7 @@
 //! the peg pose is reported at every waypoint's time. Identification and diagnosis compare
 //! these poses with the tracked ones.
 
-use super::advance::{SegmentEnd, advance};
+use super::advance::{SegmentEnd, advance_turning};
 use super::stepper::{SimState, Simulator};
 use crate::Error;
 use mesopush_core::geom::{Pose, Vec2};
@@ -13,8 +13,18 @@ use mesopush_core::geom::{Pose, Vec2};
 pub struct ProbePoint {
     /// Time since the trial started, s.
     pub t_s: f64,
-    /// Probe tip centre, µm (fixture frame).
+    /// The pusher's reference point (the probe tip centre of a one-disc pusher), µm
+    /// (fixture frame).
     pub probe_um: Vec2,
+    /// The pusher's angle, rad (0 for a pusher that does not turn).
+    pub probe_theta_rad: f64,
+}
+
+impl ProbePoint {
+    /// A waypoint of a pusher that does not turn.
+    pub fn new(t_s: f64, probe_um: Vec2) -> Self {
+        Self { t_s, probe_um, probe_theta_rad: 0.0 }
+    }
 }
 
 /// The simulated state at one waypoint.
@@ -42,10 +52,15 @@ pub struct PathReplay {
     pub steps: usize,
     /// LCP solves.
     pub lcp_solves: usize,
+    /// How far the peg was moved at the start to clear a pusher recorded inside it (within
+    /// the registration tolerance), µm (0 when it started clear).
+    pub start_separation_um: f64,
 }
 
-/// Follows `path` from the peg at `start`; the probe starts at the first waypoint, which
-/// must be clear of the peg.
+/// Follows `path` from the peg at `start`; the pusher starts at the first waypoint. A pusher
+/// recorded inside the peg by no more than the registration tolerance
+/// ([`crate::SimSettings::registration_tol`], a fraction of the part's size) is resolved by
+/// moving the peg clear first (separate, then push); deeper is refused.
 pub fn follow_path(
     sim: &mut Simulator,
     start: Pose,
@@ -62,16 +77,16 @@ pub fn follow_path(
             format!("time goes backwards at t = {} s → {} s", w[0].t_s, w[1].t_s),
         ));
     }
-    let mut st = SimState { peg: start, probe_um: first.probe_um };
-    let gap = sim.probe_gap_um(&st);
-    if gap < -sim.settings().penetration_tol_um {
-        return Err(Error::invalid(
-            "probe path",
-            format!("the probe starts {:.1} µm inside the peg", -gap),
-        ));
-    }
-    let mut out =
-        PathReplay { samples: Vec::with_capacity(path.len()), jams: 0, steps: 0, lcp_solves: 0 };
+    let mut st =
+        SimState { peg: start, probe_um: first.probe_um, probe_theta_rad: first.probe_theta_rad };
+    let start_separation_um = separate(sim, &mut st)?;
+    let mut out = PathReplay {
+        samples: Vec::with_capacity(path.len()),
+        jams: 0,
+        steps: 0,
+        lcp_solves: 0,
+        start_separation_um,
+    };
     let mut budget = sim.settings().max_steps.max(path.len() * 4);
     let mut force = 0.0;
     out.samples.push(PathSample {
@@ -83,12 +98,13 @@ pub fn follow_path(
     let mut prev_t_s = first.t_s;
     for w in &path[1..] {
         let delta = w.probe_um - st.probe_um;
+        let turn = w.probe_theta_rad - st.probe_theta_rad;
         let dt_s = w.t_s - prev_t_s;
         prev_t_s = w.t_s;
         if dt_s > 0.0 {
-            sim.set_probe_speed_um_s(delta.norm() / dt_s);
+            sim.set_probe_speed_um_s(sim.pusher_travel_um(delta, turn) / dt_s);
         }
-        let end = advance(sim, &mut st, delta, &mut budget, |_, info, _| {
+        let end = advance_turning(sim, &mut st, (delta, turn), &mut budget, |_, info, _| {
             out.steps += 1;
             out.lcp_solves += usize::from(info.solved_lcp);
             force = info.probe_force;
@@ -106,6 +122,52 @@ pub fn follow_path(
     Ok(out)
 }
 
+/// Moves the peg at `st` clear of a pusher recorded inside it by more than the penetration
+/// tolerance and at most the registration tolerance (each time along the deepest disc's
+/// contact normal, a few times for several discs); returns the distance moved, µm.
+fn separate(sim: &mut Simulator, st: &mut SimState) -> Result<f64, Error> {
+    let settings = sim.settings();
+    let (pen_tol, reg_um) = (
+        settings.penetration_tol_um,
+        settings.registration_tol * sim.model().part.char_length_um(),
+    );
+    let depth = -sim.probe_gap_um(st);
+    if depth > reg_um {
+        return Err(Error::invalid(
+            "probe path",
+            format!(
+                "the pusher starts {depth:.1} µm inside the part, more than the registration \
+                 tolerance ({reg_um:.1} µm = registration_tol {} × the part's size): check the \
+                 trial's first pose and pusher geometry",
+                sim.settings().registration_tol
+            ),
+        ));
+    }
+    let mut moved = 0.0;
+    for _ in 0..8 {
+        let peg = sim.model().part.polygon().transformed(&st.peg);
+        let deepest = sim
+            .pusher()
+            .discs_at(&st.pusher_pose())
+            .enumerate()
+            .filter_map(|(k, (c, r))| crate::contact::probe_contact(&peg, k, &c, r, 0.0))
+            .min_by(|a, b| a.gap_um.total_cmp(&b.gap_um));
+        match deepest {
+            Some(c) if -c.gap_um > pen_tol => {
+                let push = c.normal * (-c.gap_um);
+                st.peg.x_um += push.x;
+                st.peg.y_um += push.y;
+                moved += push.norm();
+            }
+            _ => return Ok(moved),
+        }
+    }
+    Err(Error::invalid(
+        "probe path",
+        "the pusher starts inside the part from several sides and cannot be separated from it",
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -119,14 +181,14 @@ mod tests {
     fn waypoints(plan: &Plan) -> Vec<ProbePoint> {
         let mut p = plan.probe_start();
         let mut t = 0.0;
-        let mut out = vec![ProbePoint { t_s: 0.0, probe_um: p }];
+        let mut out = vec![ProbePoint::new(0.0, p)];
         for [dx, dy] in &plan.moves_um {
             let d = Vec2::new(*dx, *dy);
             let n = (d.norm() / 2.0).ceil() as usize;
             for _ in 0..n {
                 p += d / n as f64;
                 t += d.norm() / n as f64 / plan.speed_um_s;
-                out.push(ProbePoint { t_s: t, probe_um: p });
+                out.push(ProbePoint::new(t, p));
             }
         }
         out
@@ -147,7 +209,7 @@ mod tests {
     fn a_path_starting_inside_the_peg_or_going_back_in_time_is_refused() {
         let plan = Plan::table2();
         let peg = plan.peg_start_pose();
-        let inside = [ProbePoint { t_s: 0.0, probe_um: peg.position() }];
+        let inside = [ProbePoint::new(0.0, peg.position())];
         assert!(follow_path(&mut sim(), peg, &inside).is_err());
         let mut w = waypoints(&plan);
         w[3].t_s = -1.0;

@@ -82,8 +82,7 @@ fn sample(t_s: f64, move_index: usize, st: &SimState, info: &StepInfo) -> Sample
 /// Replays `plan` from its own start state, or from `start` when given.
 pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<Replay, Error> {
     plan.validate()?;
-    let mut st =
-        SimState { peg: start.unwrap_or(plan.peg_start_pose()), probe_um: plan.probe_start() };
+    let mut st = SimState::new(start.unwrap_or(plan.peg_start_pose()), plan.probe_start());
     let mut out = Replay {
         samples: vec![sample(0.0, 0, &st, &StepInfo::default())],
         inserted: false,

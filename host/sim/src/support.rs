@@ -24,6 +24,29 @@ impl SupportDistribution {
         Self { points_um: [[-w, -h], [-w, h], [2.0 * w, 0.0]], mu_surface: [mu_surface; 3] }
     }
 
+    /// The three-point support equivalent to a uniform pressure over `part` (what a
+    /// flat-bottomed part on a flat plate is usually assumed to have): three equal loads
+    /// whose first and second moments about the COM equal the uniform area's, i.e. the points
+    /// √2·Σ^½·u_k for the area's covariance Σ and three unit vectors u_k 120° apart, the first
+    /// along the major axis. Same rotational friction and centre as the uniform pressure, for
+    /// any convex part and scale; a part whose points would fall outside it is refused
+    /// by [`SupportDistribution::validate`].
+    pub fn uniform_pressure(part: &crate::Part, mu_surface: f64) -> Self {
+        let [sxx, syy, sxy] = area_covariance(part.polygon());
+        let phi = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+        let (c, s) = (phi.cos(), phi.sin());
+        // Eigenvalues along the rotated axes (major first).
+        let l1 = c * c * sxx + 2.0 * c * s * sxy + s * s * syy;
+        let l2 = s * s * sxx - 2.0 * c * s * sxy + c * c * syy;
+        let (a, b) = ((2.0 * l1.max(0.0)).sqrt(), (2.0 * l2.max(0.0)).sqrt());
+        let points_um = [0.0f64, 1.0, 2.0].map(|k| {
+            let t = std::f64::consts::TAU * k / 3.0;
+            let (u, v) = (a * t.cos(), b * t.sin());
+            [c * u - s * v, s * u + c * v]
+        });
+        Self { points_um, mu_surface: [mu_surface; 3] }
+    }
+
     /// The support points as vectors.
     pub fn points(&self) -> [Vec2; 3] {
         self.points_um.map(|[x, y]| Vec2::new(x, y))
@@ -83,6 +106,23 @@ impl SupportDistribution {
     }
 }
 
+/// The covariance `[Σxx, Σyy, Σxy]` (µm²) of a uniform area over `poly` about the origin.
+fn area_covariance(poly: &ConvexPolygon) -> [f64; 3] {
+    let v = poly.vertices();
+    let (mut a2, mut ixx, mut iyy, mut ixy) = (0.0, 0.0, 0.0, 0.0);
+    for i in 0..v.len() {
+        let (p, q) = (v[i], v[(i + 1) % v.len()]);
+        let w = p.x * q.y - q.x * p.y;
+        a2 += w;
+        ixx += w * (p.x * p.x + p.x * q.x + q.x * q.x);
+        iyy += w * (p.y * p.y + p.y * q.y + q.y * q.y);
+        ixy += w * (p.x * q.y + 2.0 * p.x * p.y + 2.0 * q.x * q.y + q.x * p.y);
+    }
+    // ∫x² = Σ w (…)/12, ∫xy = Σ w (…)/24, area = Σ w / 2 (all with the winding's sign).
+    let area = a2 / 2.0;
+    [ixx / 12.0 / area, iyy / 12.0 / area, ixy / 24.0 / area]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -116,5 +156,34 @@ mod tests {
         let e = s.validate(&part).unwrap_err().to_string();
         assert!(e.contains("outside the part"), "{e}");
         assert!(SupportDistribution::symmetric(300.0, 300.0, 0.3).validate(&part).is_ok());
+    }
+
+    #[test]
+    fn uniform_pressure_has_equal_loads_and_the_areas_second_moments() {
+        let (a, b) = (50_000.0, 35_000.0);
+        let part = crate::Part::from_polygon(&ConvexPolygon::rectangle(a, b).unwrap());
+        let sup = SupportDistribution::uniform_pressure(&part, 0.3);
+        sup.validate(part.polygon()).unwrap();
+        for f in sup.normal_forces().unwrap() {
+            assert!((f - 1.0 / 3.0).abs() < 1e-9, "{f}");
+        }
+        let pts = sup.points();
+        let m = |f: &dyn Fn(&Vec2) -> f64| pts.iter().map(f).sum::<f64>() / 3.0;
+        assert!((m(&|p| p.x * p.x) - a * a / 12.0).abs() < 1e-6 * a * a);
+        assert!((m(&|p| p.y * p.y) - b * b / 12.0).abs() < 1e-6 * a * a);
+        assert!(m(&|p| p.x * p.y).abs() < 1e-6 * a * a);
+        // A turned part gets the turned support.
+        let th = 0.7_f64;
+        let pose = mesopush_core::geom::Pose::new(0.0, 0.0, th);
+        let turned = crate::Part::from_polygon(&part.polygon().transformed(&pose));
+        let t = SupportDistribution::uniform_pressure(&turned, 0.3);
+        let moment =
+            |s: &SupportDistribution| s.points().iter().map(|p| p.norm_squared()).sum::<f64>();
+        assert!((moment(&t) - moment(&sup)).abs() < 1e-6 * a * a);
+        let rotated: Vec<Vec2> = sup.points().iter().map(|p| pose.rotate(p)).collect();
+        for p in t.points() {
+            let near = rotated.iter().map(|r| (r - p).norm()).fold(f64::MAX, f64::min);
+            assert!(near < 1e-6 * a, "{p:?} not among {rotated:?}");
+        }
     }
 }

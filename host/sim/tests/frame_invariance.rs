@@ -60,7 +60,7 @@ fn simulate(scene: &Scene, m: &Motion, friction: SupportFriction) -> Option<Vec<
     let fixture = Fixture { walls: vec![m.polygon(&scene.wall)], goal, insert_depth_um: 1.0 };
     let settings = SimSettings { support_friction: friction, ..SimSettings::default() };
     let mut sim = Simulator::new(model, fixture, settings).expect("a valid scene");
-    let mut st = SimState { peg: m.pose(&scene.peg), probe_um: m.point(scene.probe_start) };
+    let mut st = SimState::new(m.pose(&scene.peg), m.point(scene.probe_start));
     let mut out = vec![];
     for mv in &scene.moves {
         let n = (mv.norm() / 5.0).ceil() as usize;

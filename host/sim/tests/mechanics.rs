@@ -31,7 +31,7 @@ fn sim(mu_probe: f64) -> Simulator {
 /// Pushes the peg (at the origin, θ = `theta`) with the probe starting at `probe` moving by
 /// `delta` in 5 µm steps; returns the final state and the last step's info.
 fn push(sim: &mut Simulator, theta: f64, probe: Vec2, delta: Vec2) -> (SimState, StepInfo) {
-    let mut st = SimState { peg: Pose::new(0.0, 0.0, theta), probe_um: probe };
+    let mut st = SimState::new(Pose::new(0.0, 0.0, theta), probe);
     let n = (delta.norm() / 5.0).ceil() as usize;
     let mut last = StepInfo::default();
     for _ in 0..n {
@@ -87,7 +87,7 @@ fn no_push_means_no_motion() {
     // Probe touching but still, and probe retreating from or sliding off the contact.
     for delta in [Vec2::zeros(), Vec2::new(-20.0, 0.0), Vec2::new(-5.0, 15.0)] {
         let probe = Vec2::new(-HALF_LEN - 12.5, 100.0);
-        let mut st = SimState { peg: Pose::new(0.0, 0.0, 0.0), probe_um: probe };
+        let mut st = SimState::new(Pose::new(0.0, 0.0, 0.0), probe);
         s.step(&mut st, delta).unwrap();
         let p = st.peg;
         let moved = p.x_um.abs().max(p.y_um.abs()).max(p.theta_rad.abs() * HALF_LEN);

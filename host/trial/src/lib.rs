@@ -10,12 +10,14 @@
 //! records), `mesopush-vision` (its calibration) and the executor's recording schema. Never on
 //! identification, planning, diagnosis, the rig or batches, which all read trial logs.
 
+pub mod discover;
 pub mod error;
 pub mod meta;
 pub mod reader;
 pub mod records;
 pub mod writer;
 
+pub use discover::trial_dirs;
 pub use error::Error;
 pub use meta::{CalibrationRecord, Outcome, TrialMeta, TrialState};
 pub use reader::Trial;

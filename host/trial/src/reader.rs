@@ -114,6 +114,7 @@ impl Trial {
             .map(|r| ProbePoint {
                 t_s: r.t_us as f64 * 1e-6,
                 probe_um: Vec2::new(r.cmd_x_um, r.cmd_y_um),
+                probe_theta_rad: 0.0,
             })
             .collect()
     }

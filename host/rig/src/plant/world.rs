@@ -121,7 +121,7 @@ impl RigWorld {
         let peg_body = setup.model.part.polygon().clone();
         let probe_radius_um = setup.model.probe_radius_um;
         let sim = Simulator::new(setup.model, fixture, SimSettings::default())?;
-        let st = SimState { peg: setup.peg_start, probe_um: probe_start_um };
+        let st = SimState::new(setup.peg_start, probe_start_um);
         if sim.probe_gap_um(&st) < 0.0 {
             return Err(Error::invalid("world", "the probe starts inside the peg"));
         }

@@ -1,13 +1,16 @@
 //! One quasi-static time step: find the contacts, build the mixed LCP, solve it and move the
-//! peg. The probe is position-controlled; the peg moves only through its contacts.
+//! peg. The pusher (one or more discs, [`crate::pusher`]) is position-controlled in x, y and
+//! θ; the peg moves only through its contacts.
 
 mod solve;
+mod step;
 
 use super::cone::SupportCones;
-use super::contact::{Contact, ContactKind, probe_contact, wall_contacts};
+use super::contact::{Contact, ContactKind, wall_contacts};
 use super::fixture::Fixture;
 use super::formulate::{Layout, N_SUPPORTS, StepProblem};
 use super::model::Model;
+use super::pusher::Pusher;
 use super::settings::SimSettings;
 use crate::Error;
 use mesopush_core::geom::{Pose, Vec2};
@@ -18,8 +21,22 @@ use mesopush_lcp::{LcpSettings, LcpSolver};
 pub struct SimState {
     /// Peg pose.
     pub peg: Pose,
-    /// Probe tip centre, µm.
+    /// The pusher's reference point (the probe tip centre of a one-disc pusher), µm.
     pub probe_um: Vec2,
+    /// The pusher's angle, rad (0 for the paper's probe, which never turns).
+    pub probe_theta_rad: f64,
+}
+
+impl SimState {
+    /// The peg at `peg` and the pusher at `probe_um`, not turned.
+    pub fn new(peg: Pose, probe_um: Vec2) -> Self {
+        Self { peg, probe_um, probe_theta_rad: 0.0 }
+    }
+
+    /// The pusher's pose (reference point and angle).
+    pub fn pusher_pose(&self) -> Pose {
+        Pose::new(self.probe_um.x, self.probe_um.y, self.probe_theta_rad)
+    }
 }
 
 /// What one step found (for trajectories and diagnostics).
@@ -29,11 +46,12 @@ pub struct StepInfo {
     pub solved_lcp: bool,
     /// Contacts carrying force after the step, with their mode, e.g. `probe:stick`.
     pub active: Vec<(ContactKind, Mode)>,
-    /// Normal force at the probe, in units of the part's weight.
+    /// Normal force at the pusher (summed over its discs), in units of the part's weight.
     pub probe_force: f64,
-    /// Tangential (friction) force at the probe along t = (−n_y, n_x), part weights.
+    /// Tangential (friction) force at the pusher along each contact's t = (−n_y, n_x),
+    /// summed over its discs, part weights.
     pub probe_friction: f64,
-    /// Whether the probe contact slides (its σ > 0).
+    /// Whether a pusher contact slides (its σ > 0).
     pub probe_sliding: bool,
     /// Largest penetration of the peg into a wall after the step, µm (≥ 0).
     pub penetration_um: f64,
@@ -80,6 +98,10 @@ const ACTIVE_EPS: f64 = 1e-9;
 #[derive(Debug)]
 pub struct Simulator {
     model: Model,
+    pusher: Pusher,
+    /// Largest distance of a disc's rim from the pusher's reference point, µm: how far a
+    /// turn of 1 rad moves a contact on the pusher.
+    pusher_reach_um: f64,
     fixture: Fixture,
     settings: SimSettings,
     support_forces: [f64; N_SUPPORTS],
@@ -114,8 +136,16 @@ impl Simulator {
         let cones = SupportCones::new(settings.n_directions);
         let char_len_um = model.part.char_length_um();
         let capacity = Layout { n_contacts: 16, n_directions: settings.n_directions }.n();
+        let pusher = model.pusher();
+        let pusher_reach_um = pusher
+            .discs
+            .iter()
+            .map(|d| d.center_um[0].hypot(d.center_um[1]) + d.radius_um)
+            .fold(0.0, f64::max);
         Ok(Self {
             model,
+            pusher,
+            pusher_reach_um,
             fixture,
             settings,
             support_forces,
@@ -144,6 +174,14 @@ impl Simulator {
     pub fn model(&self) -> &Model {
         &self.model
     }
+    /// The pusher.
+    pub fn pusher(&self) -> &Pusher {
+        &self.pusher
+    }
+    /// Largest distance of a disc's rim from the pusher's reference point, µm.
+    pub fn pusher_reach_um(&self) -> f64 {
+        self.pusher_reach_um
+    }
     /// The fixture.
     pub fn fixture(&self) -> &Fixture {
         &self.fixture
@@ -153,10 +191,19 @@ impl Simulator {
         &self.settings
     }
 
-    /// Gap between the probe disc and the peg, µm (negative: penetration).
+    /// Smallest gap between a pusher disc and the peg, µm (negative: penetration).
     pub fn probe_gap_um(&self, state: &SimState) -> f64 {
         let peg = self.model.part.polygon().transformed(&state.peg);
-        peg.signed_distance(&state.probe_um) - self.model.probe_radius_um
+        self.pusher
+            .discs_at(&state.pusher_pose())
+            .map(|(c, r)| peg.signed_distance(&c) - r)
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// How far a pusher point can move when the pusher moves by `delta_um` and turns by
+    /// `d_theta_rad`, µm (the travel that steps and margins are measured in).
+    pub fn pusher_travel_um(&self, delta_um: Vec2, d_theta_rad: f64) -> f64 {
+        delta_um.norm() + d_theta_rad.abs() * self.pusher_reach_um
     }
 
     /// Advances the probe by `delta_um` and moves the peg quasi-statically. A step whose peg
@@ -164,9 +211,20 @@ impl Simulator {
     /// wall beyond the penetration tolerance, is split in halves (at most 2^8 pieces), so fast
     /// rotations near a pivot cannot tunnel. On failure the state is left unchanged.
     pub fn step(&mut self, state: &mut SimState, delta_um: Vec2) -> Result<StepInfo, Error> {
+        self.step_turning(state, delta_um, 0.0)
+    }
+
+    /// As [`Simulator::step`], with the pusher also turning by `d_theta_rad` about its
+    /// reference point.
+    pub fn step_turning(
+        &mut self,
+        state: &mut SimState,
+        delta_um: Vec2,
+        d_theta_rad: f64,
+    ) -> Result<StepInfo, Error> {
         let start = *state;
         let mut info = StepInfo::default();
-        match self.step_split(state, delta_um, 0, &mut info) {
+        match self.step_split(state, (delta_um, d_theta_rad), 0, &mut info) {
             Ok(()) => Ok(info),
             Err(e) => {
                 *state = start;
@@ -178,13 +236,13 @@ impl Simulator {
     fn step_split(
         &mut self,
         state: &mut SimState,
-        delta_um: Vec2,
+        delta: (Vec2, f64),
         depth: u32,
         acc: &mut StepInfo,
     ) -> Result<(), Error> {
         const MAX_DEPTH: u32 = 8;
         let before = *state;
-        let info = self.solve_step(state, delta_um)?;
+        let info = self.solve_step(state, delta)?;
         let moved = self.max_vertex_motion_um(&before.peg, &state.peg);
         let pen = self.wall_penetration_um(&state.peg);
         let bad = moved > self.settings.contact_margin_um || pen > self.settings.penetration_tol_um;
@@ -194,11 +252,12 @@ impl Simulator {
                 return Err(Error::Stuck(format!(
                     "even a {:.4} µm probe step moves a peg vertex {moved:.1} µm (wall \
                      penetration {pen:.1} µm): the peg is wedged and cannot follow the probe",
-                    delta_um.norm()
+                    self.pusher_travel_um(delta.0, delta.1)
                 )));
             }
-            self.step_split(state, delta_um / 2.0, depth + 1, acc)?;
-            return self.step_split(state, delta_um / 2.0, depth + 1, acc);
+            let half = (delta.0 / 2.0, delta.1 / 2.0);
+            self.step_split(state, half, depth + 1, acc)?;
+            return self.step_split(state, half, depth + 1, acc);
         }
         acc.solved_lcp |= info.solved_lcp;
         acc.pivots += info.pivots;
@@ -231,32 +290,6 @@ impl Simulator {
         self.scratch.iter().map(|c| -c.gap_um).fold(0.0, f64::max)
     }
 
-    /// One step without splitting. With adhesion on, a probe retracting from a peg it
-    /// touches first tries to drag the peg (the contact mirrored, pulling); the drag holds
-    /// when it needs no more than the pull-off force.
-    fn solve_step(&mut self, state: &mut SimState, delta_um: Vec2) -> Result<StepInfo, Error> {
-        let peg = self.model.part.polygon().transformed(&state.peg);
-        let margin = self.settings.contact_margin_um + delta_um.norm();
-        let r = self.model.probe_radius_um;
-        let Some(probe) = probe_contact(&peg, &state.probe_um, r, margin) else {
-            self.support_slip_um_s = [0.0; N_SUPPORTS];
-            state.probe_um += delta_um;
-            return Ok(StepInfo::default());
-        };
-        if let Some(a) = self.model.effects.adhesion
-            && probe.gap_um <= a.range_um
-            && probe.normal.dot(&delta_um) < 0.0
-        {
-            let before = *state;
-            let pull = Contact { normal: -probe.normal, gap_um: 0.0, ..probe };
-            match self.solve_contacts(state, &peg, pull, delta_um, margin) {
-                Ok(info) if info.probe_force <= a.pull_off_weight => return Ok(info),
-                _ => *state = before,
-            }
-        }
-        self.solve_contacts(state, &peg, probe, delta_um, margin)
-    }
-
     /// Surface friction at each support now (the model's, changed by the friction patch
     /// and speed-dependent friction effects when they are on; speed friction uses each
     /// support's own sliding speed, from the steps before).
@@ -278,46 +311,6 @@ impl Simulator {
         }
         mu
     }
-
-    /// Solves one step with the probe contact `probe` and the walls near `peg`.
-    fn solve_contacts(
-        &mut self,
-        state: &mut SimState,
-        peg: &mesopush_core::geom::ConvexPolygon,
-        probe: Contact,
-        delta_um: Vec2,
-        margin: f64,
-    ) -> Result<StepInfo, Error> {
-        let mut info = StepInfo::default();
-        self.contacts.clear();
-        self.contacts.push((probe, self.model.mu_probe));
-        self.scratch.clear();
-        wall_contacts(peg, &self.fixture.walls, margin, &mut self.scratch);
-        self.contacts.extend(self.scratch.iter().map(|c| (*c, self.model.mu_wall)));
-        let supports = self.model.support.points().map(|p| state.peg.rotate(&p));
-        let lay = self.solve_aligned(state, &supports, delta_um, &mut info)?;
-        let z = &self.z;
-        info.solved_lcp = true;
-        info.probe_force = z[lay.normal(0)];
-        info.probe_friction = z[lay.planar_friction(0, 0)] - z[lay.planar_friction(0, 1)];
-        info.probe_sliding = z[lay.planar_sigma(0)] > ACTIVE_EPS;
-        for (i, (c, _)) in self.contacts.iter().enumerate() {
-            if z[lay.normal(i)] > ACTIVE_EPS {
-                let mode =
-                    if z[lay.planar_sigma(i)] > ACTIVE_EPS { Mode::Slide } else { Mode::Stick };
-                info.active.push((c.kind, mode));
-            }
-        }
-        let dz = [z[0], z[1], z[2] / self.char_len_um];
-        if self.model.effects.speed_friction.is_some() {
-            self.track_support_slip(&supports, dz, delta_um.norm());
-        }
-        state.peg.x_um += dz[0];
-        state.peg.y_um += dz[1];
-        state.peg.theta_rad += dz[2];
-        state.probe_um += delta_um;
-        Ok(info)
-    }
 }
 
 impl Simulator {
@@ -338,7 +331,8 @@ impl Simulator {
 /// Short label of a contact for CSV columns, e.g. `probe`, `wall2v` (peg vertex on wall 2).
 pub fn contact_label(kind: ContactKind) -> String {
     match kind {
-        ContactKind::Probe => "probe".into(),
+        ContactKind::Probe(0) => "probe".into(),
+        ContactKind::Probe(k) => format!("probe{k}"),
         ContactKind::Wall { wall, peg_vertex: true } => format!("wall{wall}v"),
         ContactKind::Wall { wall, peg_vertex: false } => format!("wall{wall}e"),
     }

@@ -5,7 +5,7 @@
 use super::{SimState, Simulator, StepInfo};
 use crate::Error;
 use crate::coulomb::{Linearised, Supports};
-use crate::formulate::{Layout, N_SUPPORTS, StepInputs};
+use crate::formulate::{Layout, N_SUPPORTS, PusherMotion, StepInputs};
 use crate::settings::SupportFriction;
 use mesopush_core::geom::{Pose, Vec2};
 use mesopush_lcp::MlcpProblem;
@@ -34,11 +34,12 @@ impl Simulator {
         &mut self,
         state: &SimState,
         supports: &[Vec2; N_SUPPORTS],
-        delta_um: Vec2,
+        motion: PusherMotion,
+        travel_um: f64,
         info: &mut StepInfo,
     ) -> Result<Layout, Error> {
         let mu = self.surface_friction(&state.peg);
-        let ctx = StepCtx { state, supports, delta_um, mu };
+        let ctx = StepCtx { state, supports, motion, travel_um, mu };
         if self.settings.support_friction == SupportFriction::Polygon {
             return self.solve_with(&ctx, SupportTerm::BodyFrame, info);
         }
@@ -55,7 +56,7 @@ impl Simulator {
         // the carried motion fails, it starts again from the polygon.
         let carried = self.newton_carry.filter(|(p, _, _)| *p == state.peg);
         if let Some((_, u, travel)) = carried.filter(|c| c.2 > 0.0) {
-            let u = u.map(|x| x * delta_um.norm() / travel);
+            let u = u.map(|x| x * travel_um / travel);
             if let Some(lay) = self.newton(&ctx, &exact, u, info) {
                 return Ok(lay);
             }
@@ -113,7 +114,7 @@ impl Simulator {
         let p = &ctx.state.peg;
         let end =
             Pose::new(p.x_um + full[0], p.y_um + full[1], p.theta_rad + full[2] / self.char_len_um);
-        self.newton_carry = Some((end, full, ctx.delta_um.norm()));
+        self.newton_carry = Some((end, full, ctx.travel_um));
         Some(lay)
     }
 
@@ -161,7 +162,7 @@ impl Simulator {
             contacts: &self.contacts,
             com: ctx.state.peg.position(),
             char_len_um: self.char_len_um,
-            probe_delta_um: ctx.delta_um,
+            pusher: ctx.motion,
             supports: *ctx.supports,
             support_forces: self.support_forces,
             mu_surface: ctx.mu,
@@ -206,6 +207,7 @@ impl Simulator {
 struct StepCtx<'a> {
     state: &'a SimState,
     supports: &'a [Vec2; N_SUPPORTS],
-    delta_um: Vec2,
+    motion: PusherMotion,
+    travel_um: f64,
     mu: [f64; N_SUPPORTS],
 }

@@ -1,7 +1,7 @@
 //! `mesopush batch`: run (or resume) a trial batch from a batch file, shard it, merge shard
 //! outputs, and write its report. Thin over `mesopush_batch`.
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_batch::stats::{Loaded, Summary, summarize};
@@ -107,11 +107,11 @@ fn run_batch(a: &RunArgs) -> Result<()> {
     let s = summarize(&Loaded::load(&out)?);
     print_run(&out, &s, &session, a.json);
     if s.records_lost > 0 || s.duplicates > 0 {
-        bail!(
+        return Err(crate::verdict::Negative(format!(
             "data integrity: {} records lost, {} duplicated trials",
-            s.records_lost,
-            s.duplicates
-        );
+            s.records_lost, s.duplicates
+        ))
+        .into());
     }
     Ok(())
 }

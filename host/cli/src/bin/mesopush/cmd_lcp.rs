@@ -20,8 +20,8 @@ pub(crate) struct LcpArgs {
 #[derive(Debug, Subcommand)]
 enum LcpCommand {
     /// Solve the LCP (or, with --mlcp, the mixed LCP) in a dense Siconos `.dat` file (Lemke,
-    /// then fallbacks; every answer is verified). Exit status: 0 solved, 2 no verified
-    /// solution (status names why), 1 error.
+    /// then fallbacks; every answer is verified). Exit status: 0 solved, 1 no verified
+    /// solution (status names why), 2 invalid input.
     Solve(SolveArgs),
     /// Benchmark the solver on seeded random simulator step problems (paper Eq. 7–8; with the
     /// probe alone, 3 free and 31 complementarity variables): per-problem median solve time,
@@ -122,9 +122,7 @@ fn solve(a: SolveArgs) -> anyhow::Result<()> {
         print_text(&summary, &outcome.as_ref().map(|s| s.z.to_vec()).map_err(|f| f.to_string()));
     }
     if !solved {
-        use std::io::Write;
-        std::io::stdout().flush().ok();
-        std::process::exit(2);
+        return Err(crate::verdict::Negative("no verified solution".into()).into());
     }
     Ok(())
 }

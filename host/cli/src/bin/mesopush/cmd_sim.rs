@@ -143,7 +143,7 @@ fn bench(sim: &mut Simulator, plan: &Plan, runs: usize, as_json: bool) -> Result
         if !w[1].solved_lcp {
             continue;
         }
-        let start = SimState { peg: w[0].peg, probe_um: Vec2::from(w[0].probe_um) };
+        let start = SimState::new(w[0].peg, Vec2::from(w[0].probe_um));
         let delta = Vec2::from(w[1].probe_um) - start.probe_um;
         let reps = 20;
         let t0 = Instant::now();

@@ -1,7 +1,8 @@
 //! `mesopush`: the host command line. Thin over the host crates (`mesopush-sim`, `-plan`,
 //! `-ident`, `-diagnose`, `-rig`, `-batch`, ...): each subcommand module parses its flags,
 //! calls a library function and prints. The cli crate is the only one that depends on clap,
-//! anyhow and indicatif; nothing depends on it.
+//! anyhow and indicatif; nothing depends on it. Exit status: 0 success, 1 a negative verdict
+//! ([`verdict::Negative`]), 2 invalid input or a refusal (any other error).
 
 mod cmd_batch;
 mod cmd_demo;
@@ -12,6 +13,7 @@ mod cmd_identify;
 mod cmd_lcp;
 mod cmd_plan;
 mod cmd_render;
+mod cmd_replay;
 mod cmd_robustness;
 mod cmd_run;
 mod cmd_sim;
@@ -44,6 +46,7 @@ enum Command {
     Robustness(cmd_robustness::RobustnessArgs),
     /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
     Track(cmd_track::TrackArgs),
+    Replay(cmd_replay::ReplayArgs),
     /// Identify probe friction and supports from unconstrained pushing trials (Table I).
     Identify(cmd_identify::IdentifyArgs),
     /// Diagnose trials: held-out residuals, their structure, the missing effect, before/after.
@@ -62,9 +65,13 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<verdict::Negative>().is_some() => {
+            eprintln!("verdict: {e:#}");
+            std::process::ExitCode::from(1)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
-            std::process::ExitCode::FAILURE
+            std::process::ExitCode::from(2)
         }
     }
 }
@@ -76,6 +83,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Lcp(args) => cmd_lcp::run(args),
         Command::Render(args) => cmd_render::run(&args),
         Command::Track(args) => cmd_track::run(&args),
+        Command::Replay(args) => cmd_replay::run(&args),
         Command::Identify(args) => cmd_identify::run(&args),
         Command::Diagnose(args) => cmd_diagnose::run(&args),
         Command::Batch(args) => cmd_batch::run(&args),

@@ -1,6 +1,8 @@
-//! The head of a trial's printed summary (state, verdict, reason, final pose), shared by
-//! `mesopush demo` (in-process loop) and `mesopush run` (a rig or `mesopush-fwsim`), so both
-//! say the same thing the same way.
+//! Verdicts: the head of a trial's printed summary (state, verdict, reason, final pose),
+//! shared by `mesopush demo` (in-process loop) and `mesopush run` (a rig or
+//! `mesopush-fwsim`), so both say the same thing the same way; and [`Negative`], the error a
+//! command returns for a negative verdict (exit status 1; any other error is invalid input
+//! or a refusal, exit status 2).
 
 use mesopush_core::geom::Pose;
 use mesopush_trial::TrialState;
@@ -28,3 +30,16 @@ pub(crate) fn print_head(
         println!("  final tracked pose: x {:.1} µm, y {:.1} µm, θ {deg:.2}°", p.x_um, p.y_um);
     }
 }
+
+/// A negative verdict (no plan found, no verified LCP solution, records lost): the command
+/// ran and the answer is no. `main` exits with status 1 for it, 2 for any other error.
+#[derive(Debug)]
+pub(crate) struct Negative(pub(crate) String);
+
+impl std::fmt::Display for Negative {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Negative {}

@@ -1,7 +1,7 @@
 //! `mesopush plan rrt`: the paper's RRT from the flags, its summary printed.
 
 use super::{CommonArgs, bar, load_world};
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
 use mesopush_plan::figures::draw_replayed_plan;
 use mesopush_plan::pushes::PushSettings;
@@ -78,7 +78,9 @@ pub(super) fn run(args: &RrtArgs) -> Result<()> {
         print_text(&summary);
     }
     if !found && !c.json {
-        bail!("no plan found in {} iterations ({planning_ms:.0} ms)", result.iterations);
+        let why =
+            format!("no plan found in {} iterations ({planning_ms:.0} ms)", result.iterations);
+        return Err(crate::verdict::Negative(why).into());
     }
     Ok(())
 }
