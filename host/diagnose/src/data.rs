@@ -108,7 +108,7 @@ impl TrialData {
             id: trial.meta.trial_id.clone(),
             index,
             part: trial.meta.part.clone(),
-            probe_radius_um: trial.meta.probe_radius_um,
+            probe_radius_um: trial.meta.probe_radius_um()?,
             fixture: trial.meta.fixture.clone().unwrap_or_else(open_plate),
             cmd,
             frames,

@@ -122,11 +122,12 @@ impl IdentTrial {
             ));
         }
         let part = trial.meta.part.clone();
-        let start = resting_pose(&part, trial.meta.probe_radius_um, poses, &path);
+        let probe_radius_um = trial.meta.probe_radius_um()?;
+        let start = resting_pose(&part, probe_radius_um, poses, &path);
         Ok(Self {
             id: trial.meta.trial_id.clone(),
             part,
-            probe_radius_um: trial.meta.probe_radius_um,
+            probe_radius_um,
             fixture: trial.meta.fixture.clone().unwrap_or_else(open_plate),
             start,
             path: trimmed,

@@ -10,22 +10,29 @@
 //! records), `mesopush-vision` (its calibration) and the executor's recording schema. Never on
 //! identification, planning, diagnosis, the rig or batches, which all read trial logs.
 
+mod csv_read;
 pub mod error;
 pub mod meta;
+pub mod pusher_path;
 pub mod reader;
 pub mod records;
+pub mod time_order;
 pub mod writer;
 
 pub use error::Error;
 pub use meta::{CalibrationRecord, Outcome, TrialMeta, TrialState};
+pub use pusher_path::PusherPoint;
 pub use reader::Trial;
 pub use records::{EventRow, FrameRow, PoseRow, ProbeRow};
+pub use time_order::DroppedRow;
 pub use writer::TrialWriter;
 
 /// The format's name in `trial.json`.
 pub const FORMAT: &str = "mesopush-trial";
-/// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+/// The format version this build writes (and the newest it reads).
+pub const FORMAT_VERSION: u32 = 2;
+/// The oldest format version this build reads (version 1: one probe disc, `probe_radius_um`).
+pub const OLDEST_FORMAT_VERSION: u32 = 1;
 
 /// File names inside a trial directory.
 pub mod files {
