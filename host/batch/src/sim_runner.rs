@@ -100,7 +100,14 @@ impl SimRunner {
         for s in &r.samples {
             let t_us = us(s.t_s);
             let [x, y] = s.probe_um;
-            w.probe(&ProbeRow { t_us, cmd_x_um: x, cmd_y_um: y, rep_x_um: None, rep_y_um: None, cmd_theta_rad: None })?;
+            w.probe(&ProbeRow {
+                t_us,
+                cmd_x_um: x,
+                cmd_y_um: y,
+                rep_x_um: None,
+                rep_y_um: None,
+                cmd_theta_rad: None,
+            })?;
             let p = s.peg;
             w.pose(&PoseRow {
                 t_us,

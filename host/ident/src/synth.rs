@@ -189,7 +189,14 @@ pub fn write_trial(
     for p in &path {
         let t_us = units::s_to_us_i64("probe t_s", p.t_s)?;
         let (x, y) = (p.probe_um.x, p.probe_um.y);
-        w.probe(&ProbeRow { t_us, cmd_x_um: x, cmd_y_um: y, rep_x_um: None, rep_y_um: None, cmd_theta_rad: None })?;
+        w.probe(&ProbeRow {
+            t_us,
+            cmd_x_um: x,
+            cmd_y_um: y,
+            rep_x_um: None,
+            rep_y_um: None,
+            cmd_theta_rad: None,
+        })?;
     }
     let end_us = units::s_to_us_i64("last setpoint t_s", path[path.len() - 1].t_s)?;
     for (i, t_us) in (0..=end_us).step_by(frame_step).enumerate() {

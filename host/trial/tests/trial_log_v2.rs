@@ -170,7 +170,7 @@ fn refusal(meta: &str, probe: &str, pose: &str) -> String {
 }
 
 #[test]
-fn refusals_name_the_field_and_the_value() {
+fn trial_json_refusals_name_the_field_and_the_value() {
     let cases: Vec<(String, &str, &str, Vec<&str>)> = vec![
         (v2(""), PROBE, POSE, vec!["trial.json", "format_version 2 requires `pusher`"]),
         (
@@ -215,6 +215,19 @@ fn refusals_name_the_field_and_the_value() {
             vec!["units", "mm"],
         ),
         (v2(ONE_DISC).replace("mesopush-trial", "other"), PROBE, POSE, vec!["format = \"other\""]),
+    ];
+    for (meta, probe, pose, wanted) in cases {
+        let e = refusal(&meta, probe, pose);
+        eprintln!("{e}");
+        for w in wanted {
+            assert!(e.contains(w), "{w:?} not in {e:?}");
+        }
+    }
+}
+
+#[test]
+fn csv_refusals_name_the_row_column_and_value() {
+    let cases: Vec<(String, &str, &str, Vec<&str>)> = vec![
         (
             v2(ONE_DISC),
             "t_us,cmd_x_um,cmd_y_um\n0,1,2\n5,x,2\n",
