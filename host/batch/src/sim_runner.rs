@@ -80,7 +80,7 @@ impl TrialResult {
 impl SimRunner {
     fn meta(&self, job: &TrialJob) -> TrialMeta {
         let mut meta = TrialMeta::new(job.trial_id.clone(), "sim", self.model.part.clone());
-        meta.probe_radius_um = self.model.probe_radius_um;
+        meta.pusher = mesopush_sim::Pusher::single(self.model.probe_radius_um);
         meta.fixture = Some(self.fixture.clone());
         meta.seeds.insert("trial".into(), job.trial_seed);
         meta.seeds.insert("attempt".into(), job.attempt_seed);
@@ -91,7 +91,7 @@ impl SimRunner {
         meta.world = Some(world);
         if self.camera.is_some() {
             meta.calibration = Some((&Calibration::default()).into());
-            meta.frame_period_us = Some(FRAME_PERIOD_US);
+            meta.frame_period_us = Some(FRAME_PERIOD_US as f64);
         }
         meta
     }
@@ -100,7 +100,14 @@ impl SimRunner {
         for s in &r.samples {
             let t_us = us(s.t_s);
             let [x, y] = s.probe_um;
-            w.probe(&ProbeRow { t_us, cmd_x_um: x, cmd_y_um: y, rep_x_um: None, rep_y_um: None })?;
+            w.probe(&ProbeRow {
+                t_us,
+                cmd_x_um: x,
+                cmd_y_um: y,
+                rep_x_um: None,
+                rep_y_um: None,
+                cmd_theta_rad: None,
+            })?;
             let p = s.peg;
             w.pose(&PoseRow {
                 t_us,

@@ -242,8 +242,8 @@ pub fn write_trial(
     };
     let pred = predict_open_loop(&data, truth, &SimSettings::default())?;
     let mut meta = TrialMeta::new(id, "mesopush-synth", truth.part.clone());
-    meta.probe_radius_um = truth.probe_radius_um;
-    meta.frame_period_us = Some(FRAME_US.unsigned_abs());
+    meta.pusher = mesopush_sim::Pusher::single(truth.probe_radius_um);
+    meta.frame_period_us = Some(FRAME_US.unsigned_abs() as f64);
     meta.seeds.insert("synth".into(), seed);
     meta.world =
         Some(serde_json::to_value(truth).map_err(|e| Error::invalid("synth", e.to_string()))?);
@@ -255,6 +255,7 @@ pub fn write_trial(
             cmd_y_um: p.probe_um.y,
             rep_x_um: None,
             rep_y_um: None,
+            cmd_theta_rad: None,
         })?;
     }
     let dir = w.finish(Outcome { state: TrialState::Done, reason: None, inserted: None })?;

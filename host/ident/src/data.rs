@@ -140,7 +140,7 @@ impl IdentTrial {
             ));
         }
         let part = trial.meta.part.clone();
-        let pusher = Pusher::single(trial.meta.probe_radius_um);
+        let pusher = trial.meta.pusher();
         let start = resting_pose(&part, &pusher, poses, &path);
         Ok(Self {
             id: trial.meta.trial_id.clone(),

@@ -156,8 +156,8 @@ fn frame_step(spec: &SynthSpec) -> Result<usize, Error> {
 /// The metadata of trial `k`: the truth in `world`, which identification never reads.
 fn meta(spec: &SynthSpec, k: usize, push: &PushSpec, jams: usize) -> TrialMeta {
     let mut meta = TrialMeta::new(format!("synth-{k:02}"), "ident-synth", spec.model.part.clone());
-    meta.probe_radius_um = spec.model.probe_radius_um;
-    meta.frame_period_us = Some(spec.frame_period_us.unsigned_abs());
+    meta.pusher = mesopush_sim::Pusher::single(spec.model.probe_radius_um);
+    meta.frame_period_us = Some(spec.frame_period_us.unsigned_abs() as f64);
     meta.world = Some(serde_json::json!({
         "generator": "mesopush ident::synth",
         "true_model": spec.model,
@@ -189,7 +189,14 @@ pub fn write_trial(
     for p in &path {
         let t_us = units::s_to_us_i64("probe t_s", p.t_s)?;
         let (x, y) = (p.probe_um.x, p.probe_um.y);
-        w.probe(&ProbeRow { t_us, cmd_x_um: x, cmd_y_um: y, rep_x_um: None, rep_y_um: None })?;
+        w.probe(&ProbeRow {
+            t_us,
+            cmd_x_um: x,
+            cmd_y_um: y,
+            rep_x_um: None,
+            rep_y_um: None,
+            cmd_theta_rad: None,
+        })?;
     }
     let end_us = units::s_to_us_i64("last setpoint t_s", path[path.len() - 1].t_s)?;
     for (i, t_us) in (0..=end_us).step_by(frame_step).enumerate() {

@@ -30,6 +30,9 @@ pub enum Error {
         /// The value and the rule it breaks.
         message: String,
     },
+    /// A value does not fit the integer type it is recorded as (µs times).
+    #[error(transparent)]
+    OutOfRange(#[from] mesopush_protocol::units::OutOfRange),
     /// A shared helper (atomic file, shard set) failed.
     #[error(transparent)]
     Core(#[from] mesopush_core::Error),

@@ -1,7 +1,10 @@
-//! `trial.json`: what a trial was (part, plan, calibration, seeds, world) and how it ended.
+//! `trial.json`: what a trial was (part, pusher, plan, calibration, seeds, world) and how it
+//! ended. In memory a [`TrialMeta`] is always the current version (2); a version-1 file reads
+//! as its version-2 equivalent (its `probe_radius_um` becomes a one-disc [`Pusher`]), so every
+//! reader sees one shape.
 
 use crate::Error;
-use mesopush_sim::{Fixture, Part, Plan};
+use mesopush_sim::{Fixture, Part, Plan, Pusher};
 use mesopush_vision::calib::Calibration;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -89,54 +92,53 @@ impl Default for Units {
     }
 }
 
-/// The contents of `trial.json`.
+/// The contents of `trial.json` (version 2; see the module header for version 1).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "MetaFile")]
 pub struct TrialMeta {
     /// Always [`super::FORMAT`].
     pub format: String,
-    /// [`super::FORMAT_VERSION`] when written by this build.
+    /// Always [`super::FORMAT_VERSION`] in memory (a version-1 file is upgraded on reading).
     pub format_version: u32,
     /// Identifier, unique within a batch (e.g. `trial-0007`).
     pub trial_id: String,
     /// Who produced the data: `fwsim`, `rig`, or an outside generator's name.
     pub source: String,
     /// Units of every file.
-    #[serde(default)]
     pub units: Units,
     /// The pushed part (body frame, COM at the origin unless `com_um` says otherwise).
     pub part: Part,
-    /// Probe tip radius, µm.
-    #[serde(default = "default_probe_radius")]
-    pub probe_radius_um: f64,
-    /// Fixture walls and goal, when the trial ran in a fixture (absent: open plate).
-    #[serde(default)]
+    /// The pusher: its discs in its own frame, whose origin is the point probe.csv's
+    /// `cmd_x_um, cmd_y_um` move (see [`TrialMeta::pusher`]).
+    pub pusher: Pusher,
+    /// Fixture walls and goal, when the trial ran in a fixture (absent or null: open plate).
     pub fixture: Option<Fixture>,
     /// The plan that was run, when it was a plan.
-    #[serde(default)]
     pub plan: Option<Plan>,
     /// Camera calibration used to track the frames.
-    #[serde(default)]
     pub calibration: Option<CalibrationRecord>,
-    /// Camera frame period, µs (absent: no camera, pose.csv came from elsewhere).
-    #[serde(default)]
-    pub frame_period_us: Option<u64>,
+    /// Nominal camera frame period, µs; may be fractional (30 Hz is 33 333.3 µs). Absent: no
+    /// camera, pose.csv came from elsewhere.
+    pub frame_period_us: Option<f64>,
     /// Seeds of every random stream involved, by name.
-    #[serde(default)]
     pub seeds: BTreeMap<String, u64>,
     /// The simulated world's description (the firmware simulator's world file, verbatim),
     /// when simulated. Never read by identification or diagnosis.
-    #[serde(default)]
     pub world: Option<serde_json::Value>,
+    /// How the trial was converted from a foreign recording (importer, source file, rows
+    /// kept and dropped, conventions), when it was imported. Never read by the physics.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub import: Option<serde_json::Value>,
     /// How it ended.
     pub outcome: Outcome,
 }
 
-fn default_probe_radius() -> f64 {
-    12.5
-}
+/// The version-1 probe radius when `probe_radius_um` is absent, µm.
+pub const V1_DEFAULT_PROBE_RADIUS_UM: f64 = 12.5;
 
 impl TrialMeta {
-    /// Metadata for a new trial of `part`, outcome incomplete.
+    /// Metadata for a new trial of `part` pushed by the paper's probe (one 12.5 µm disc),
+    /// outcome incomplete.
     pub fn new(trial_id: impl Into<String>, source: impl Into<String>, part: Part) -> Self {
         Self {
             format: super::FORMAT.into(),
@@ -145,44 +147,191 @@ impl TrialMeta {
             source: source.into(),
             units: Units::default(),
             part,
-            probe_radius_um: default_probe_radius(),
+            pusher: Pusher::single(V1_DEFAULT_PROBE_RADIUS_UM),
             fixture: None,
             plan: None,
             calibration: None,
             frame_period_us: None,
             seeds: BTreeMap::new(),
             world: None,
+            import: None,
             outcome: Outcome::incomplete(),
         }
     }
 
-    /// Checks the format marker, version and units.
+    /// The effective pusher for either file version: version 2's `pusher`, or version 1's
+    /// one disc of `probe_radius_um` (default 12.5 µm) at the reference point.
+    pub fn pusher(&self) -> Pusher {
+        self.pusher.clone()
+    }
+
+    /// The probe radius when the pusher is one disc at its reference point (the paper's
+    /// probe, all that version 1 could record), µm; refuses any other pusher, naming it, for
+    /// the stages that model only such a probe.
+    pub fn probe_radius_um(&self) -> Result<f64, Error> {
+        match self.pusher.discs.as_slice() {
+            [d] if d.center_um == [0.0, 0.0] => Ok(d.radius_um),
+            discs => Err(Error::invalid(
+                "trial.json pusher",
+                format!(
+                    "trial {}: the pusher has {} disc(s) {:?}; this stage models only one disc \
+                     centred on the reference point",
+                    self.trial_id,
+                    discs.len(),
+                    discs.iter().map(|d| (d.center_um, d.radius_um)).collect::<Vec<_>>()
+                ),
+            )),
+        }
+    }
+
+    /// Checks the format marker, version, units, pusher and frame period (the rules every
+    /// loaded file meets; writers may call it before writing).
     pub fn check(&self) -> Result<(), Error> {
         if self.format != super::FORMAT {
             return Err(Error::invalid(
-                "trial.json",
-                format!("format is {:?}, expected {:?}", self.format, super::FORMAT),
+                "trial.json format",
+                format!("format = {:?}; expected {:?}", self.format, super::FORMAT),
             ));
         }
         if self.format_version != super::FORMAT_VERSION {
             return Err(Error::invalid(
-                "trial.json",
+                "trial.json format_version",
                 format!(
-                    "format_version {} is not supported (this build reads {})",
+                    "format_version {} is not supported (this build reads {} to {})",
                     self.format_version,
+                    super::OLDEST_FORMAT_VERSION,
                     super::FORMAT_VERSION
                 ),
             ));
         }
         if self.units != Units::default() {
             return Err(Error::invalid(
-                "trial.json",
-                format!("units {:?}: only um / rad / us are supported", self.units),
+                "trial.json units",
+                format!("units = {:?}: only um / rad / us are supported", self.units),
             ));
         }
-        if !(self.probe_radius_um >= 0.0 && self.probe_radius_um.is_finite()) {
-            return Err(Error::invalid("trial.json", "probe_radius_um must be ≥ 0"));
+        self.pusher.validate().map_err(|e| Error::invalid("trial.json pusher", e.to_string()))?;
+        if let Some(p) = self.frame_period_us {
+            if !(p.is_finite() && p > 0.0) {
+                return Err(Error::invalid(
+                    "trial.json frame_period_us",
+                    format!("frame_period_us = {p}; must be a finite number > 0 (µs)"),
+                ));
+            }
         }
         Ok(())
+    }
+}
+
+/// `trial.json` as written by any supported version: what a reader accepts before the
+/// version-1 fields are converted.
+#[derive(Debug, Deserialize)]
+struct MetaFile {
+    format: String,
+    format_version: u32,
+    trial_id: String,
+    source: String,
+    #[serde(default)]
+    units: Units,
+    part: Part,
+    #[serde(default)]
+    pusher: Option<Pusher>,
+    #[serde(default)]
+    probe_radius_um: Option<f64>,
+    #[serde(default)]
+    fixture: Option<Fixture>,
+    #[serde(default)]
+    plan: Option<Plan>,
+    #[serde(default)]
+    calibration: Option<CalibrationRecord>,
+    #[serde(default)]
+    frame_period_us: Option<f64>,
+    #[serde(default)]
+    seeds: BTreeMap<String, u64>,
+    #[serde(default)]
+    world: Option<serde_json::Value>,
+    #[serde(default)]
+    import: Option<serde_json::Value>,
+    outcome: Outcome,
+}
+
+/// The pusher a file of `version` describes, refusing a field the version does not have.
+fn file_pusher(
+    version: u32,
+    pusher: Option<Pusher>,
+    probe_radius_um: Option<f64>,
+) -> Result<Pusher, Error> {
+    match (version, pusher, probe_radius_um) {
+        (1, None, r) => {
+            let r = r.unwrap_or(V1_DEFAULT_PROBE_RADIUS_UM);
+            if !(r.is_finite() && r >= 0.0) {
+                return Err(Error::invalid(
+                    "trial.json probe_radius_um",
+                    format!("probe_radius_um = {r}; must be a finite number ≥ 0 (µm)"),
+                ));
+            }
+            Ok(Pusher::single(r))
+        }
+        (1, Some(_), _) => Err(Error::invalid(
+            "trial.json pusher",
+            "`pusher` is a version-2 field; a file that gives it says \"format_version\": 2",
+        )),
+        (_, Some(_), Some(r)) => Err(Error::invalid(
+            "trial.json probe_radius_um",
+            format!(
+                "probe_radius_um = {r} is the version-1 field; version 2 gives the pusher's \
+                 discs in `pusher` only"
+            ),
+        )),
+        (_, Some(p), None) => Ok(p),
+        (v, None, _) => Err(Error::invalid(
+            "trial.json pusher",
+            format!(
+                "format_version {v} requires `pusher`, e.g. {{\"discs\": [{{\"center_um\": \
+                 [0, 0], \"radius_um\": 12.5}}]}}"
+            ),
+        )),
+    }
+}
+
+impl TryFrom<MetaFile> for TrialMeta {
+    type Error = Error;
+    fn try_from(f: MetaFile) -> Result<Self, Error> {
+        if f.format != super::FORMAT {
+            return Err(Error::invalid(
+                "trial.json format",
+                format!("format = {:?}; expected {:?}", f.format, super::FORMAT),
+            ));
+        }
+        let v = f.format_version;
+        if !(super::OLDEST_FORMAT_VERSION..=super::FORMAT_VERSION).contains(&v) {
+            return Err(Error::invalid(
+                "trial.json format_version",
+                format!(
+                    "format_version {v} is not supported (this build reads {} to {})",
+                    super::OLDEST_FORMAT_VERSION,
+                    super::FORMAT_VERSION
+                ),
+            ));
+        }
+        let meta = TrialMeta {
+            format: f.format,
+            format_version: super::FORMAT_VERSION,
+            trial_id: f.trial_id,
+            source: f.source,
+            units: f.units,
+            part: f.part,
+            pusher: file_pusher(v, f.pusher, f.probe_radius_um)?,
+            fixture: f.fixture,
+            plan: f.plan,
+            calibration: f.calibration,
+            frame_period_us: f.frame_period_us,
+            seeds: f.seeds,
+            world: f.world,
+            import: f.import,
+            outcome: f.outcome,
+        };
+        meta.check()?;
+        Ok(meta)
     }
 }

@@ -1,14 +1,17 @@
 //! Loading a trial directory. Only `trial.json` and `probe.csv` are required, plus
 //! `pose.csv` for anything that compares with measurement: trials tracked elsewhere carry no
-//! frames. Every problem is reported with the file and, for CSV, the line.
+//! frames. Every problem is reported with the file and, for CSV, the row, line, column and
+//! value; pose rows left out because their time stepped back are counted in the result.
 
 use super::files;
 use super::meta::TrialMeta;
 use super::records::{EventRow, FrameRow, PoseRow, ProbeRow};
 use crate::Error;
+use crate::csv_read::read_csv;
+use crate::pusher_path::{PusherPoint, check_theta_column, pusher_path};
+use crate::time_order::{DroppedRow, check_ordered, drop_steps_back};
 use mesopush_core::geom::{Pose, Vec2};
 use mesopush_sim::ProbePoint;
-use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
 
 /// A loaded trial.
@@ -24,73 +27,74 @@ pub struct Trial {
     pub frames: Vec<FrameRow>,
     /// `events.csv` (empty when absent).
     pub events: Vec<EventRow>,
-    /// `pose.csv`, when tracked.
+    /// `pose.csv`, when tracked, without the rows in [`Trial::pose_rows_dropped`].
     pub pose: Option<Vec<PoseRow>>,
+    /// pose.csv rows left out because their time stepped back (within
+    /// [`crate::time_order::POSE_STEP_BACK_TOLERANCE_US`]); callers report them.
+    pub pose_rows_dropped: Vec<DroppedRow>,
 }
 
-fn read_csv<T: DeserializeOwned>(path: &Path, required: bool) -> Result<Option<Vec<T>>, Error> {
-    if !path.exists() {
-        return if required {
-            Err(Error::Io { path: path.to_path_buf(), cause: std::io::ErrorKind::NotFound.into() })
+/// Parses `trial.json`, naming the field of a refused value by its path.
+fn parse_meta(path: &Path, text: &str) -> Result<TrialMeta, Error> {
+    let de = &mut serde_json::Deserializer::from_str(text);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let field = e.path().to_string();
+        if field == "." {
+            Error::parse(path, e.inner())
         } else {
-            Ok(None)
-        };
-    }
-    let mut r = csv::Reader::from_path(path)
-        .map_err(|e| Error::Parse { path: path.to_path_buf(), message: e.to_string() })?;
-    let mut rows = Vec::new();
-    for (i, row) in r.deserialize().enumerate() {
-        let row = row.map_err(|e| Error::Parse {
-            path: path.to_path_buf(),
-            message: format!("row {} (line {}): {e}", i + 1, i + 2),
-        })?;
-        rows.push(row);
-    }
-    Ok(Some(rows))
+            Error::parse(path, format!("field {field}: {}", e.inner()))
+        }
+    })
 }
 
-fn check_times(path: &Path, times: impl Iterator<Item = i64>) -> Result<(), Error> {
-    let mut last = i64::MIN;
-    for (i, t) in times.enumerate() {
-        if t < last {
-            return Err(Error::Parse {
-                path: path.to_path_buf(),
-                message: format!(
-                    "row {} (line {}): t_us {t} goes backwards (after {last})",
-                    i + 1,
-                    i + 2
-                ),
-            });
-        }
-        last = t;
-    }
-    Ok(())
+fn rows_only<T>(rows: Option<Vec<(u64, T)>>) -> Vec<T> {
+    rows.unwrap_or_default().into_iter().map(|(_, r)| r).collect()
 }
 
 impl Trial {
     /// Loads `dir`.
     pub fn load(dir: &Path) -> Result<Self, Error> {
         let meta_path = dir.join(files::META);
-        let text = std::fs::read_to_string(&meta_path)
-            .map_err(|cause| Error::Io { path: meta_path.clone(), cause })?;
-        let meta: TrialMeta = serde_json::from_str(&text)
-            .map_err(|e| Error::Parse { path: meta_path.clone(), message: e.to_string() })?;
-        meta.check()
-            .map_err(|e| Error::Parse { path: meta_path.clone(), message: e.to_string() })?;
-        let probe: Vec<ProbeRow> = read_csv(&dir.join(files::PROBE), true)?.unwrap_or_default();
-        check_times(&dir.join(files::PROBE), probe.iter().map(|r| r.t_us))?;
-        let pose: Option<Vec<PoseRow>> = read_csv(&dir.join(files::POSE), false)?;
-        if let Some(p) = &pose {
-            check_times(&dir.join(files::POSE), p.iter().map(|r| r.t_us))?;
-        }
+        let text =
+            std::fs::read_to_string(&meta_path).map_err(|cause| Error::io(&meta_path, cause))?;
+        let meta = parse_meta(&meta_path, &text)?;
+        let probe_path = dir.join(files::PROBE);
+        let probe = read_csv::<ProbeRow>(&probe_path, true)?.unwrap_or_default();
+        let times: Vec<(u64, i64)> = probe.iter().map(|(l, r)| (*l, r.t_us)).collect();
+        check_ordered(&probe_path, &times)?;
+        check_theta_column(&probe_path, &probe)?;
+        let pose_path = dir.join(files::POSE);
+        let (pose, pose_rows_dropped) = match read_csv::<PoseRow>(&pose_path, false)? {
+            Some(rows) => {
+                let (kept, dropped) = drop_steps_back(&pose_path, rows, |r| r.t_us)?;
+                (Some(kept), dropped)
+            }
+            None => (None, Vec::new()),
+        };
         Ok(Self {
             dir: dir.to_path_buf(),
             meta,
-            probe,
-            frames: read_csv(&dir.join(files::FRAMES), false)?.unwrap_or_default(),
-            events: read_csv(&dir.join(files::EVENTS), false)?.unwrap_or_default(),
+            probe: rows_only(Some(probe)),
+            frames: rows_only(read_csv(&dir.join(files::FRAMES), false)?),
+            events: rows_only(read_csv(&dir.join(files::EVENTS), false)?),
             pose,
+            pose_rows_dropped,
         })
+    }
+
+    /// What loading left out, for a caller to print (`None` when nothing was).
+    pub fn load_note(&self) -> Option<String> {
+        let d = &self.pose_rows_dropped;
+        let first = d.first()?;
+        Some(format!(
+            "{}: {} pose.csv row(s) dropped because their time stepped back (first: line {}, \
+             t_us {} after {})",
+            self.dir.display(),
+            d.len(),
+            first.line,
+            first.t_us,
+            first.after_t_us
+        ))
     }
 
     /// The tracked poses, or an error naming the trial when it was never tracked.
@@ -107,16 +111,28 @@ impl Trial {
         }
     }
 
-    /// The commanded probe path as simulator waypoints.
+    /// The commanded pusher path as simulator waypoints: the reference point and the angle
+    /// (`cmd_theta_rad`, 0 when probe.csv has no such column) per probe.csv row.
     pub fn commanded_path(&self) -> Vec<ProbePoint> {
         self.probe
             .iter()
             .map(|r| ProbePoint {
                 t_s: r.t_us as f64 * 1e-6,
                 probe_um: Vec2::new(r.cmd_x_um, r.cmd_y_um),
-                probe_theta_rad: 0.0,
+                probe_theta_rad: r.cmd_theta_rad.unwrap_or(0.0),
             })
             .collect()
+    }
+
+    /// The commanded pusher angle at each of [`Trial::commanded_path`]'s waypoints, rad
+    /// (0 throughout when probe.csv has no `cmd_theta_rad`).
+    pub fn commanded_path_theta(&self) -> Vec<f64> {
+        self.probe.iter().map(|r| r.cmd_theta_rad.unwrap_or(0.0)).collect()
+    }
+
+    /// The commanded pusher path: reference point and angle per probe.csv row.
+    pub fn pusher_path(&self) -> Vec<PusherPoint> {
+        pusher_path(&self.probe)
     }
 
     /// The first tracked pose (the simulation's start).

@@ -6,30 +6,37 @@
 pub use mesopush_executor::recording::{EventRow, FrameRow};
 use serde::{Deserialize, Serialize};
 
-/// `probe.csv`: the probe, commanded (the executor's setpoint schedule) and as the
-/// controller reported it.
+/// `probe.csv`: the pusher's reference point (the origin of its frame, `trial.json` `pusher`)
+/// and angle, commanded (the executor's setpoint schedule; interpolated linearly between
+/// rows), and the position the controller reported.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ProbeRow {
     /// Time since the trial's start, µs (executor time base).
     pub t_us: i64,
-    /// Commanded probe x, µm.
+    /// Commanded x of the pusher's reference point, µm.
     pub cmd_x_um: f64,
-    /// Commanded probe y, µm.
+    /// Commanded y of the pusher's reference point, µm.
     pub cmd_y_um: f64,
     /// Reported (encoder) probe x, µm; empty when no report belongs to this row.
     pub rep_x_um: Option<f64>,
     /// Reported probe y, µm.
     pub rep_y_um: Option<f64>,
+    /// Commanded pusher angle, rad (format version 2, optional column): absent, or empty on
+    /// every row, means 0 throughout; filled on one row means filled on every row. Written
+    /// only when set (so a trial without it keeps version 1's five columns).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cmd_theta_rad: Option<f64>,
 }
 
-/// `pose.csv`: the tracked peg pose per frame.
+/// `pose.csv`: the tracked peg pose per frame: the position of the part's body-frame origin
+/// (its COM: the area centroid of `part.vertices_um`, or `com_um`) and its angle.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PoseRow {
     /// Capture time of the frame, µs since the trial's start.
     pub t_us: i64,
-    /// Peg centre x, µm.
+    /// Peg COM x, µm.
     pub x_um: f64,
-    /// Peg centre y, µm.
+    /// Peg COM y, µm.
     pub y_um: f64,
     /// Peg orientation, rad.
     pub theta_rad: f64,

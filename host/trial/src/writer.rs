@@ -58,14 +58,19 @@ pub struct TrialWriter {
     events: CsvFile,
     pose: Option<CsvFile>,
     rows_since_flush: usize,
+    /// Probe rows written, and whether they carry `cmd_theta_rad` (set by the first).
+    probe_rows: u64,
+    theta_column: Option<bool>,
 }
 
 /// Rows between flushes to the OS.
 const FLUSH_EVERY: usize = 64;
 
 impl TrialWriter {
-    /// Creates `dir` (which must not hold a trial already) and writes the metadata.
+    /// Creates `dir` (which must not hold a trial already) and writes the metadata (refused,
+    /// naming the field, when it breaks [`TrialMeta::check`]).
     pub fn create(dir: &Path, meta: TrialMeta) -> Result<Self, Error> {
+        meta.check()?;
         if dir.join(files::META).exists() {
             return Err(Error::invalid(
                 "trial directory",
@@ -81,6 +86,8 @@ impl TrialWriter {
             dir: dir.to_path_buf(),
             meta,
             rows_since_flush: 0,
+            probe_rows: 0,
+            theta_column: None,
         };
         w.write_meta()?;
         Ok(w)
@@ -118,9 +125,25 @@ impl TrialWriter {
         self.pose.as_mut().map_or(Ok(()), CsvFile::flush)
     }
 
-    /// Appends a probe row.
+    /// Appends a probe row. `cmd_theta_rad` is all or nothing: the first row decides whether
+    /// the column exists, and a later row that disagrees is refused (not written).
     pub fn probe(&mut self, row: &ProbeRow) -> Result<(), Error> {
+        let has_theta = row.cmd_theta_rad.is_some();
+        let column = *self.theta_column.get_or_insert(has_theta);
+        if column != has_theta {
+            return Err(Error::invalid(
+                "probe.csv cmd_theta_rad",
+                format!(
+                    "row {}: cmd_theta_rad = {:?}, but the first row {} it; every row gives \
+                     the angle or none does",
+                    self.probe_rows + 1,
+                    row.cmd_theta_rad,
+                    if column { "gave" } else { "did not give" }
+                ),
+            ));
+        }
         self.probe.write(row)?;
+        self.probe_rows += 1;
         self.counted()
     }
 

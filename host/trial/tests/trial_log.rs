@@ -21,6 +21,7 @@ fn probe(i: i64) -> ProbeRow {
         cmd_y_um: 5.0,
         rep_x_um: Some(x - 0.1),
         rep_y_um: None,
+        cmd_theta_rad: None,
     }
 }
 
@@ -113,7 +114,7 @@ fn bad_files_are_refused_naming_file_and_line() {
     let text = std::fs::read_to_string(path.join("trial.json")).unwrap();
     std::fs::write(
         path.join("trial.json"),
-        text.replace("\"format_version\": 1", "\"format_version\": 9"),
+        text.replace("\"format_version\": 2", "\"format_version\": 9"),
     )
     .unwrap();
     let e = Trial::load(&path).unwrap_err().to_string();
@@ -145,7 +146,7 @@ fn a_trial_tracked_elsewhere_of_another_part_loads() {
     .unwrap();
     let t = Trial::load(dir.path()).unwrap();
     assert_eq!(t.meta.part.polygon().len(), 6);
-    assert_eq!(t.meta.probe_radius_um, 12.5);
+    assert_eq!(t.meta.probe_radius_um().unwrap(), 12.5);
     assert!(t.frames.is_empty());
     assert_eq!(t.first_pose().unwrap().x_um, 200.0);
 }

@@ -143,6 +143,7 @@ fn probe_rows(c: &Completion) -> Result<Vec<ProbeRow>, Error> {
                 cmd_y_um: cmd.y,
                 rep_x_um: None,
                 rep_y_um: None,
+                cmd_theta_rad: None,
             }
         })
         .collect();
@@ -187,7 +188,7 @@ pub fn complete_trial(dir: &Path, c: &Completion) -> Result<Completed, Error> {
     meta.fixture = Some(fixture);
     meta.plan = Some(c.plan.clone());
     meta.calibration = Some(CalibrationRecord::from(&c.calibration));
-    meta.frame_period_us = Some(c.frame_period_us);
+    meta.frame_period_us = Some(c.frame_period_us as f64);
     meta.outcome = Outcome { state: c.state, reason: c.reason.clone(), inserted };
     let text = serde_json::to_string_pretty(&meta)
         .map_err(|e| Error::invalid("trial.json", e.to_string()))?;

@@ -70,11 +70,11 @@ pub(crate) struct Prepared {
 
 fn meta(spec: &TrialSpec, cal: &mesopush_vision::Calibration) -> TrialMeta {
     let mut m = TrialMeta::new(&spec.trial_id, "fwsim", spec.world.model.part.clone());
-    m.probe_radius_um = spec.world.model.probe_radius_um;
+    m.pusher = mesopush_sim::Pusher::single(spec.world.model.probe_radius_um);
     m.fixture = Some(Fixture::paper());
     m.plan = Some(spec.plan.clone());
     m.calibration = Some(CalibrationRecord::from(cal));
-    m.frame_period_us = Some(spec.world.spec.camera.period_us);
+    m.frame_period_us = Some(spec.world.spec.camera.period_us as f64);
     m.seeds.insert("seed".into(), spec.seed);
     m.world = Some(spec.world.description());
     m

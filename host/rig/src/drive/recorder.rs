@@ -232,6 +232,7 @@ impl Recorder {
                 cmd_y_um: cmd.y,
                 rep_x_um: rep.map(|p| p.x),
                 rep_y_um: rep.map(|p| p.y),
+                cmd_theta_rad: None,
             };
             self.writer.probe(&row)?;
             self.next_row += 1;

@@ -10,6 +10,7 @@ mod cmd_diagnose;
 mod cmd_diagnose_confusion;
 mod cmd_flash;
 mod cmd_identify;
+mod cmd_import;
 mod cmd_lcp;
 mod cmd_plan;
 mod cmd_render;
@@ -57,6 +58,8 @@ enum Command {
     Flash(cmd_flash::FlashArgs),
     /// Arm, start and record the flashed plan on a running executor; print the verdict.
     Run(cmd_run::RunArgs),
+    /// Convert recordings of real pushes (Zhou & Mason 2017, ...) into trial logs.
+    Import(cmd_import::ImportArgs),
 }
 
 /// Runs the command; errors are printed as one `error: …` line (with their causes) and exit
@@ -91,5 +94,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Robustness(args) => cmd_robustness::run(&args),
         Command::Flash(args) => cmd_flash::run(&args),
         Command::Run(args) => cmd_run::run(&args),
+        Command::Import(args) => cmd_import::run(&args),
     }
 }
