@@ -36,6 +36,12 @@ pub struct TrialData {
     pub probe_radius_um: f64,
     /// The pusher (its discs).
     pub pusher: Pusher,
+    /// How deep the recorded pusher may start inside the part (trial.json
+    /// `registration_tol_um`), µm; `None`: the simulator's default.
+    pub registration_tol_um: Option<f64>,
+    /// Times of the `log_gap` events, s: the pusher's path before each is not recorded, so a
+    /// replay restarts there from the measured pose.
+    pub log_gaps_s: Vec<f64>,
     /// The fixture (an open plate when the trial declares none).
     pub fixture: Fixture,
     /// Commanded probe path.
@@ -112,6 +118,13 @@ impl TrialData {
             part: trial.meta.part.clone(),
             probe_radius_um: trial.meta.pusher().max_radius_um(),
             pusher: trial.meta.pusher(),
+            registration_tol_um: trial.meta.registration_tol_um,
+            log_gaps_s: trial
+                .events
+                .iter()
+                .filter(|e| e.kind == "log_gap")
+                .map(|e| e.t_us as f64 * 1e-6)
+                .collect(),
             fixture: trial.meta.fixture.clone().unwrap_or_else(open_plate),
             cmd,
             frames,

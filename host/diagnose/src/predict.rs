@@ -98,8 +98,9 @@ pub fn tip_path(fx: &Effects, cmd: &[ProbePoint]) -> Vec<ProbePoint> {
     cmd.iter().map(|p| ProbePoint { probe_um: b.update(p.probe_um), ..*p }).collect()
 }
 
-/// The probe counts as clear of the peg beyond this gap, µm: the peg rests there (pushing
-/// is quasi-static; an adhesive contact lets go within a few µm).
+/// The probe counts as clear of the peg beyond this gap, µm, for the paper's peg (scaled
+/// with the part's size for another part): the peg rests there (pushing is quasi-static; an
+/// adhesive contact lets go within a few µm).
 const CLEAR_GAP_UM: f64 = 100.0;
 
 /// The probe (tip path) at `t_s`, linearly interpolated, clamped to the path's span.
@@ -125,12 +126,16 @@ pub fn restart_frames(
     path: &[ProbePoint],
     polygon: &ConvexPolygon,
 ) -> (Vec<usize>, Vec<bool>) {
+    let scale = data.part.char_length_um() / mesopush_sim::Part::default_peg().char_length_um();
+    let clear_um = CLEAR_GAP_UM * scale;
     let clear: Vec<bool> = data
         .frames
         .iter()
         .map(|f| {
-            let p = probe_at(path, f.t_s);
-            closest_on_polygon(&polygon.transformed(&f.pose), &p).0 > CLEAR_GAP_UM
+            let w = mesopush_ident::data::pusher_at(path, f.t_s);
+            let at = Pose::new(w.probe_um.x, w.probe_um.y, w.probe_theta_rad);
+            let peg = polygon.transformed(&f.pose);
+            data.pusher.discs_at(&at).all(|(c, _)| closest_on_polygon(&peg, &c).0 > clear_um)
         })
         .collect();
     let mut out = vec![0];
@@ -206,14 +211,28 @@ fn predict_with(
         lcp_solves: 0,
         start_separation_um: 0.0,
     };
-    let (starts, clear) = if restarts {
+    let (mut starts, clear) = if restarts {
         restart_frames(data, &path, &polygon)
     } else {
         (vec![0], vec![false; data.frames.len()])
     };
+    // Where the recording says the pusher's path is unknown, the replay starts again.
+    for g in &data.log_gaps_s {
+        let k = data.frames.partition_point(|f| f.t_s < *g);
+        if k < data.frames.len() {
+            starts.push(k);
+        }
+    }
+    starts.sort_unstable();
+    starts.dedup();
     for (i, &k) in starts.iter().enumerate() {
         let t0 = data.frames[k].t_s;
-        let t1 = starts.get(i + 1).map_or(f64::INFINITY, |&j| data.frames[j].t_s);
+        let mut t1 = starts.get(i + 1).map_or(f64::INFINITY, |&j| data.frames[j].t_s);
+        // A segment ends at the last recorded command before a gap in the recording, not
+        // on the invented straight line across it.
+        if let Some(g) = data.log_gaps_s.iter().find(|g| **g > t0 && **g <= t1) {
+            t1 = path.iter().map(|p| p.t_s).filter(|t| t < g).fold(t0, f64::max);
+        }
         let seg = sub_path(&path, t0, t1);
         if seg.len() < 2 {
             continue;

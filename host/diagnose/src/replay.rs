@@ -1,7 +1,9 @@
 //! `mesopush replay`: a model's open-loop prediction of recorded trials. Each trial's
 //! recorded pusher path is replayed from its first measured pose with the model's physics
 //! (its `[effects]` included, as diagnosis predicts) on the trial's own part, pusher and
-//! fixture, and the prediction is compared with every measured pose.
+//! fixture, and the prediction is compared with every measured pose. Where the recording
+//! says the pusher's path is unknown (a `log_gap` event), the replay starts again from the
+//! first measured pose after the gap (docs/trial-log.md).
 //!
 //! Errors: `final_error_um` is the distance between the predicted and the measured centre of
 //! mass at the last measured pose, `final_error_deg` the signed angle difference (predicted
@@ -44,10 +46,27 @@ pub fn angle_diff(a: f64, b: f64) -> f64 {
     if d > std::f64::consts::PI { d - std::f64::consts::TAU } else { d }
 }
 
-/// The simulator settings for a trial: `base` with its lengths scaled to the trial's part
-/// ([`SimSettings::scaled_to`]; the paper's peg keeps `base`).
-pub fn settings_for(base: &SimSettings, data: &TrialData) -> SimSettings {
-    base.clone().scaled_to(&data.part)
+/// How trials are replayed.
+#[derive(Debug, Clone, Default)]
+pub struct ReplayOptions {
+    /// The simulator's settings for the paper's peg (scaled to each trial's part).
+    pub base: SimSettings,
+    /// The registration tolerance as a fraction of the part's size, overriding the trials'
+    /// `registration_tol_um` and the simulator's default.
+    pub registration_tol: Option<f64>,
+}
+
+/// The simulator settings for a trial: the base settings with their lengths scaled to the
+/// trial's part ([`SimSettings::scaled_to`]; the paper's peg keeps them), and the
+/// registration tolerance given, else the trial's own, else the simulator's default.
+pub fn settings_for(options: &ReplayOptions, data: &TrialData) -> SimSettings {
+    let mut s = options.base.clone().scaled_to(&data.part);
+    match (options.registration_tol, data.registration_tol_um) {
+        (Some(f), _) => s.registration_tol = f,
+        (None, Some(r)) => s.registration_tol = r / data.part.char_length_um(),
+        (None, None) => {}
+    }
+    s
 }
 
 /// Replays `data` under `model`; the simulator's error names the trial.
@@ -103,19 +122,18 @@ pub struct ReplayReport {
     pub median_rms_deg: Option<f64>,
 }
 
-/// Loads and replays every trial directory in `dirs` under `model` (settings `base` scaled
-/// to each trial's part); `on_trial` is called after each. A trial that fails is reported
+/// Loads and replays every trial directory in `dirs` under `model` ([`settings_for`] each); `on_trial` is called after each. A trial that fails is reported
 /// in `failures` and the rest go on.
 pub fn replay_dirs(
     model: &Model,
     dirs: &[std::path::PathBuf],
-    base: &SimSettings,
+    options: &ReplayOptions,
     mut on_trial: impl FnMut(&std::path::Path, Option<&TrialReplay>, &TrialData),
 ) -> ReplayReport {
     let (mut trials, mut failures) = (Vec::new(), Vec::new());
     for (i, dir) in dirs.iter().enumerate() {
         let result = TrialData::load(dir, i).and_then(|data| {
-            let r = replay_trial(model, &data, &settings_for(base, &data))?;
+            let r = replay_trial(model, &data, &settings_for(options, &data))?;
             Ok((r, data))
         });
         match result {

@@ -337,6 +337,8 @@ mod tests {
             part: mesopush_sim::Model::default().part,
             probe_radius_um: 12.5,
             pusher: mesopush_sim::Pusher::single(12.5),
+            registration_tol_um: None,
+            log_gaps_s: Vec::new(),
             fixture: open_plate(),
             cmd,
             frames,

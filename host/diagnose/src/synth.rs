@@ -236,6 +236,8 @@ pub fn write_trial(
         part: truth.part.clone(),
         probe_radius_um: truth.probe_radius_um,
         pusher: truth.pusher(),
+        registration_tol_um: None,
+        log_gaps_s: Vec::new(),
         fixture: open_plate(),
         cmd: cmd.clone(),
         frames,

@@ -82,7 +82,7 @@ pub struct TrackPanel<'a> {
 
 /// Draws the panels side by side to `path` (`.png` or `.svg`).
 pub fn draw_tracks(panels: &[TrackPanel<'_>], path: &Path) -> Result<(), Error> {
-    let size = (600 * panels.len().max(1) as u32, 800);
+    let size = (720 * panels.len().max(1) as u32, 800);
     Ok(save(&Tracks { panels }, path, size)?)
 }
 
@@ -134,15 +134,20 @@ where
     for (x, y) in &pts {
         (x0, x1, y0, y1) = (x0.min(*x), x1.max(*x), y0.min(*y), y1.max(*y));
     }
-    // Equal aspect, with a margin of 5 % of the part's size.
-    let half = 0.5 * (x1 - x0).max(y1 - y0) + 0.05 * p.part.char_length_um();
+    // Equal aspect (µm per pixel the same along x and y, the plotting area being the cell
+    // less its caption, labels and margins), with a margin of 5 % of the part's size.
+    let (w_px, h_px) = area.dim_in_pixel();
+    let aspect =
+        f64::from(w_px.saturating_sub(90).max(1)) / f64::from(h_px.saturating_sub(70).max(1));
+    let half_y = (0.5 * (x1 - x0) / aspect).max(0.5 * (y1 - y0)) + 0.05 * p.part.char_length_um();
+    let half_x = half_y * aspect;
     let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
     let mut chart = ChartBuilder::on(area)
-        .caption(&p.title, ("sans-serif", 16))
+        .caption(&p.title, ("sans-serif", 13))
         .margin(10)
         .x_label_area_size(30)
-        .y_label_area_size(50)
-        .build_cartesian_2d(cx - half..cx + half, cy + half..cy - half)?;
+        .y_label_area_size(70)
+        .build_cartesian_2d(cx - half_x..cx + half_x, cy + half_y..cy - half_y)?;
     chart.configure_mesh().x_desc("x [µm]").y_desc("y [µm] (down)").disable_mesh().draw()?;
     let probe: Vec<(f64, f64)> = p.path.iter().map(|q| (q.probe_um.x, q.probe_um.y)).collect();
     chart
@@ -170,7 +175,12 @@ where
         .draw_series(std::iter::once(PathElement::new(spath, RED.stroke_width(1))))?
         .label("simulated")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED));
-    chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.8)).draw()?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()?;
     Ok(())
 }
 

@@ -129,6 +129,12 @@ pub struct TrialMeta {
     /// kept and dropped, conventions), when it was imported. Never read by the physics.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub import: Option<serde_json::Value>,
+    /// How deep the recorded pusher may appear inside the part through registration error
+    /// alone, µm (pusher and part measured by different instruments); a replay moves the
+    /// part clear of a first pusher position at most this deep. Absent: the simulator's
+    /// default (`registration_tol` × the part's size).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub registration_tol_um: Option<f64>,
     /// How it ended.
     pub outcome: Outcome,
 }
@@ -155,6 +161,7 @@ impl TrialMeta {
             seeds: BTreeMap::new(),
             world: None,
             import: None,
+            registration_tol_um: None,
             outcome: Outcome::incomplete(),
         }
     }
@@ -211,6 +218,14 @@ impl TrialMeta {
             ));
         }
         self.pusher.validate().map_err(|e| Error::invalid("trial.json pusher", e.to_string()))?;
+        if let Some(r) = self.registration_tol_um
+            && !(r.is_finite() && r >= 0.0)
+        {
+            return Err(Error::invalid(
+                "trial.json registration_tol_um",
+                format!("registration_tol_um = {r}; must be a finite number ≥ 0 (µm)"),
+            ));
+        }
         if let Some(p) = self.frame_period_us {
             if !(p.is_finite() && p > 0.0) {
                 return Err(Error::invalid(
@@ -252,6 +267,8 @@ struct MetaFile {
     world: Option<serde_json::Value>,
     #[serde(default)]
     import: Option<serde_json::Value>,
+    #[serde(default)]
+    registration_tol_um: Option<f64>,
     outcome: Outcome,
 }
 
@@ -329,6 +346,7 @@ impl TryFrom<MetaFile> for TrialMeta {
             seeds: f.seeds,
             world: f.world,
             import: f.import,
+            registration_tol_um: f.registration_tol_um,
             outcome: f.outcome,
         };
         meta.check()?;

@@ -5,7 +5,7 @@
 use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use mesopush_diagnose::replay::{ReplayReport, replay_dirs};
+use mesopush_diagnose::replay::{ReplayOptions, ReplayReport, replay_dirs};
 use mesopush_ident::figure::draw_tracks;
 use mesopush_sim::{Model, SimSettings};
 use std::path::PathBuf;
@@ -26,7 +26,8 @@ pub(crate) struct ReplayArgs {
     #[arg(long)]
     no_fig: bool,
     /// How far a recorded pusher may start inside the part, as a fraction of the part's size
-    /// (the part is moved clear first); default: the simulator's.
+    /// (the part is moved clear first); default: the trial's `registration_tol_um`, else the
+    /// simulator's (0.02).
     #[arg(long)]
     registration_tol: Option<f64>,
     /// Print one JSON object instead of text.
@@ -37,16 +38,16 @@ pub(crate) struct ReplayArgs {
 pub(crate) fn run(a: &ReplayArgs) -> Result<()> {
     let model = Model::load(&a.model)?;
     let dirs = mesopush_trial::trial_dirs(&a.trials)?;
-    let mut base = SimSettings::default();
-    if let Some(t) = a.registration_tol {
-        base.registration_tol = t;
-    }
-    base.validate()?;
+    let options =
+        ReplayOptions { base: SimSettings::default(), registration_tol: a.registration_tol };
+    let mut check = options.base.clone();
+    check.registration_tol = a.registration_tol.unwrap_or(check.registration_tol);
+    check.validate()?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let pb = ProgressBar::new(dirs.len() as u64);
     pb.set_style(ProgressStyle::with_template("replay {bar:30} {pos}/{len} {msg}")?);
     let mut fig_errors = Vec::new();
-    let report = replay_dirs(&model, &dirs, &base, |_, r, data| {
+    let report = replay_dirs(&model, &dirs, &options, |_, r, data| {
         pb.inc(1);
         if let (Some(r), false) = (r, a.no_fig) {
             let file = a.out.join(format!("{}.png", r.trial.replace(['/', '\\'], "_")));

@@ -4,6 +4,7 @@
 //! import-zhou-mason.md` gives each with its evidence.
 
 pub mod convert;
+pub mod nominal;
 pub mod report;
 pub mod run_file;
 pub mod setup;
@@ -79,5 +80,17 @@ pub fn import(dir: &Path, out: &Path, options: &ImportOptions) -> Result<ImportR
     let runs = files.iter().map(|f| import_run(f, out, options)).collect::<Result<Vec<_>, _>>()?;
     let report = ImportReport::new(runs, options);
     report.write_index(&out.join(INDEX))?;
+    write_nominal_models(&report, out)?;
     Ok(report)
+}
+
+/// Writes `out/nominal-<set-up>.toml` ([`nominal::nominal_model`]) for every set-up imported.
+fn write_nominal_models(report: &ImportReport, out: &Path) -> Result<(), Error> {
+    for set_up in SetUp::ALL {
+        if report.runs.iter().any(|r| r.set_up == set_up.name()) {
+            let file = out.join(format!("nominal-{}.toml", set_up.name()));
+            nominal::nominal_model(set_up)?.save(&file)?;
+        }
+    }
+    Ok(())
 }

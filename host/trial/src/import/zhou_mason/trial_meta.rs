@@ -55,6 +55,7 @@ pub fn trial_meta(
     let mut m = TrialMeta::new(&id.trial_id, SOURCE, part(s)?);
     m.pusher = pusher();
     m.frame_period_us = Some(FRAME_PERIOD_US);
+    m.registration_tol_um = Some(mm_to_um(s.registration_tolerance_mm()));
     m.outcome = Outcome { state: TrialState::Done, reason: None, inserted: None };
     m.import = Some(serde_json::json!({
         "importer": "mesopush import zhou-mason (docs/import-zhou-mason.md)",
