@@ -103,17 +103,7 @@ pub fn tip_path(fx: &Effects, cmd: &[ProbePoint]) -> Vec<ProbePoint> {
 /// adhesive contact lets go within a few µm).
 const CLEAR_GAP_UM: f64 = 100.0;
 
-/// The probe (tip path) at `t_s`, linearly interpolated, clamped to the path's span.
-pub(super) fn probe_at(path: &[ProbePoint], t_s: f64) -> Vec2 {
-    let i = path.partition_point(|p| p.t_s <= t_s);
-    if i == 0 {
-        return path[0].probe_um;
-    }
-    let Some(b) = path.get(i) else { return path[i - 1].probe_um };
-    let a = &path[i - 1];
-    let w = (t_s - a.t_s) / (b.t_s - a.t_s).max(1e-12);
-    a.probe_um + (b.probe_um - a.probe_um) * w
-}
+pub(super) use mesopush_ident::data::probe_at;
 
 /// The frames the replay restarts from (multiple shooting): frame 0, and the last frame of
 /// every stretch in which the probe is clear of the measured peg before it comes back. The

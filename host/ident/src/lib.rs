@@ -86,10 +86,20 @@ pub fn identify_from(
     ticks: &Ticks<'_>,
 ) -> Result<Report, Error> {
     if !sw.total_sse_um2(sw.nominal()).is_finite() {
+        // Name a cause: the first trial the sweep's first candidate cannot simulate.
+        let c = sw.candidate(sw.nominal());
+        let why = trials
+            .iter()
+            .find_map(|t| score::simulate_or_why(t, &c, &settings.score).err().map(|e| (t, e)))
+            .map_or(String::new(), |(t, e)| {
+                format!("; e.g. with μ = {:.2}, trial {}: {e}", c.mu_probe, t.id)
+            });
         return Err(Error::invalid(
             "identify",
-            "no sampled candidate could simulate every trial (are the trials unconstrained \
-             pushes of the part recorded in trial.json?)",
+            format!(
+                "no sampled candidate could simulate every trial (are the trials unconstrained \
+                 pushes of the part recorded in trial.json?){why}"
+            ),
         ));
     }
     let opt = settings.optimize.as_ref().map(|o| {

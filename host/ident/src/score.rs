@@ -25,7 +25,8 @@ pub struct Candidate {
 /// What stays fixed while identifying.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScoreSettings {
-    /// The simulator's settings.
+    /// The simulator's settings for the paper's peg; each trial's part gets them scaled to its
+    /// size (`SimSettings::scaled_to`).
     pub sim: SimSettings,
     /// Part–wall friction (only matters for trials with walls). Default 0.25.
     pub mu_wall: f64,
@@ -113,10 +114,21 @@ pub fn simulate(
     c: &Candidate,
     settings: &ScoreSettings,
 ) -> Option<(Vec<PathSample>, usize)> {
+    simulate_or_why(trial, c, settings).ok()
+}
+
+/// As [`simulate`], with the simulator's reason when it fails (for error messages).
+pub fn simulate_or_why(
+    trial: &IdentTrial,
+    c: &Candidate,
+    settings: &ScoreSettings,
+) -> Result<(Vec<PathSample>, usize), mesopush_sim::Error> {
     let model = model_for(trial, c, settings);
-    let mut sim = Simulator::new(model, trial.fixture.clone(), settings.sim.clone()).ok()?;
-    let r = follow_path(&mut sim, trial.start, &trial.path).ok()?;
-    Some((r.samples, r.jams))
+    // The settings' lengths are the peg's; another part gets them scaled to its size.
+    let sim_settings = settings.sim.clone().scaled_to(&trial.part);
+    let mut sim = Simulator::new(model, trial.fixture.clone(), sim_settings)?;
+    let r = follow_path(&mut sim, trial.start, &trial.path)?;
+    Ok((r.samples, r.jams))
 }
 
 /// Scores `c` on `trial` (a failed simulation scores [`Score::failed`]).

@@ -26,7 +26,6 @@ pub mod writer;
 pub use discover::trial_dirs;
 pub use error::Error;
 pub use meta::{CalibrationRecord, Outcome, TrialMeta, TrialState};
-pub use pusher_path::PusherPoint;
 pub use reader::Trial;
 pub use records::{EventRow, FrameRow, PoseRow, ProbeRow};
 pub use time_order::DroppedRow;

@@ -1,25 +1,12 @@
 //! The commanded pusher path in probe.csv: the pusher's reference point and, from format
-//! version 2, its angle (`cmd_theta_rad`). The angle column is all or nothing: absent, or
+//! version 2, its angle (`cmd_theta_rad`; read into `mesopush_sim::ProbePoint` by
+//! `Trial::commanded_path`). The angle column is all or nothing: absent, or
 //! empty on every row, means θ = 0 throughout; filled on some rows but not others is refused,
 //! naming the first row without it, because guessing an angle there would invent a motion.
 
 use crate::Error;
 use crate::records::ProbeRow;
-use serde::Serialize;
 use std::path::Path;
-
-/// One waypoint of the commanded pusher path (linear interpolation between waypoints).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct PusherPoint {
-    /// Time since the trial's start, s.
-    pub t_s: f64,
-    /// The pusher's reference point (its frame's origin), x, µm.
-    pub x_um: f64,
-    /// The reference point, y, µm.
-    pub y_um: f64,
-    /// The pusher's angle (its frame's x axis from the world's, towards +y), rad.
-    pub theta_rad: f64,
-}
 
 /// Refuses a probe.csv whose `cmd_theta_rad` is filled on some rows and empty on others.
 pub(crate) fn check_theta_column(path: &Path, rows: &[(u64, ProbeRow)]) -> Result<(), Error> {
@@ -40,16 +27,4 @@ pub(crate) fn check_theta_column(path: &Path, rows: &[(u64, ProbeRow)]) -> Resul
         ));
     }
     Ok(())
-}
-
-/// The commanded path of `rows` (θ = 0 where the column is absent).
-pub(crate) fn pusher_path(rows: &[ProbeRow]) -> Vec<PusherPoint> {
-    rows.iter()
-        .map(|r| PusherPoint {
-            t_s: r.t_us as f64 * 1e-6,
-            x_um: r.cmd_x_um,
-            y_um: r.cmd_y_um,
-            theta_rad: r.cmd_theta_rad.unwrap_or(0.0),
-        })
-        .collect()
 }

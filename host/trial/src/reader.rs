@@ -8,7 +8,7 @@ use super::meta::TrialMeta;
 use super::records::{EventRow, FrameRow, PoseRow, ProbeRow};
 use crate::Error;
 use crate::csv_read::read_csv;
-use crate::pusher_path::{PusherPoint, check_theta_column, pusher_path};
+use crate::pusher_path::check_theta_column;
 use crate::time_order::{DroppedRow, check_ordered, drop_steps_back};
 use mesopush_core::geom::{Pose, Vec2};
 use mesopush_sim::ProbePoint;
@@ -122,17 +122,6 @@ impl Trial {
                 probe_theta_rad: r.cmd_theta_rad.unwrap_or(0.0),
             })
             .collect()
-    }
-
-    /// The commanded pusher angle at each of [`Trial::commanded_path`]'s waypoints, rad
-    /// (0 throughout when probe.csv has no `cmd_theta_rad`).
-    pub fn commanded_path_theta(&self) -> Vec<f64> {
-        self.probe.iter().map(|r| r.cmd_theta_rad.unwrap_or(0.0)).collect()
-    }
-
-    /// The commanded pusher path: reference point and angle per probe.csv row.
-    pub fn pusher_path(&self) -> Vec<PusherPoint> {
-        pusher_path(&self.probe)
     }
 
     /// The first tracked pose (the simulation's start).

@@ -43,9 +43,10 @@ fn the_documented_example_loads() {
     assert_eq!(t.meta.pusher(), Pusher::two_finger(2500.0, 24_000.0));
     assert_eq!(t.meta.fixture, None);
     assert_eq!(t.meta.part.polygon().len(), 4);
-    assert_eq!(t.commanded_path_theta(), [0.0, 0.0, 0.02]);
-    let path = t.pusher_path();
-    assert_eq!((path[2].t_s, path[2].x_um, path[2].theta_rad), (1.0, -22_500.0, 0.02));
+    let path = t.commanded_path();
+    let theta: Vec<f64> = path.iter().map(|p| p.probe_theta_rad).collect();
+    assert_eq!(theta, [0.0, 0.0, 0.02]);
+    assert_eq!((path[2].t_s, path[2].probe_um.x, path[2].probe_theta_rad), (1.0, -22_500.0, 0.02));
     assert_eq!(t.poses().unwrap().len(), 3);
     assert!(t.pose_rows_dropped.is_empty() && t.load_note().is_none());
 }
@@ -85,7 +86,7 @@ fn version_1_reads_as_a_one_disc_pusher() {
     assert_eq!(t.meta.probe_radius_um().unwrap(), 4.7);
     assert_eq!(t.meta.frame_period_us, Some(33_333.0));
     assert_eq!(t.meta.format_version, 2, "a version-1 file loads as its version-2 equivalent");
-    assert_eq!(t.commanded_path_theta(), [0.0, 0.0]);
+    assert!(t.commanded_path().iter().all(|p| p.probe_theta_rad == 0.0));
     write(dir.path(), &v1(""), PROBE, POSE);
     assert_eq!(Trial::load(dir.path()).unwrap().meta.pusher(), Pusher::single(12.5));
     // Version 2 with the project writer's explicit nulls.
@@ -140,9 +141,9 @@ fn version_2_round_trips_a_two_disc_pusher_and_the_angle() {
     let t = Trial::load(&path).unwrap();
     assert_eq!(t.meta, TrialMeta { outcome: out, ..meta });
     assert_eq!(t.probe, (0..50).map(angled).collect::<Vec<_>>());
-    assert_eq!(t.commanded_path_theta()[49], angled(49).cmd_theta_rad.unwrap());
-    let p = t.pusher_path();
-    assert_eq!((p[10].t_s, p[10].x_um, p[10].y_um), (t.commanded_path()[10].t_s, -1900.0, 5.0));
+    let p = t.commanded_path();
+    assert_eq!(p[49].probe_theta_rad, angled(49).cmd_theta_rad.unwrap());
+    assert_eq!((p[10].probe_um.x, p[10].probe_um.y), (-1900.0, 5.0));
     assert!(t.meta.probe_radius_um().unwrap_err().to_string().contains("2 disc(s)"));
 }
 

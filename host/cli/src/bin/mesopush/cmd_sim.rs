@@ -7,7 +7,8 @@ use mesopush_core::geom::Vec2;
 use mesopush_core::stats::percentile;
 use mesopush_plot::{PlanFigure, draw_plan};
 use mesopush_sim::{
-    Fixture, Model, Plan, Replay, SimSettings, SimState, Simulator, replay, trajectory,
+    Fixture, Model, Plan, Replay, SimSettings, SimState, Simulator, SupportFriction, replay,
+    trajectory,
 };
 use serde_json::json;
 use std::path::PathBuf;
@@ -31,9 +32,14 @@ pub(crate) struct SimArgs {
     /// Probe travel per step, µm.
     #[arg(long, default_value_t = SimSettings::default().step_um)]
     step_um: f64,
-    /// Friction directions per support.
+    /// Friction directions per support (the polygonal cone).
     #[arg(long, default_value_t = SimSettings::default().n_directions)]
     n_directions: usize,
+    /// Support friction: `coulomb`, the circular cone solved exactly (default), or
+    /// `polygon`, the paper's `--n-directions` directions in the part's body frame
+    /// (docs/simulation.md).
+    #[arg(long, default_value = "coulomb", value_parser = ["coulomb", "polygon"])]
+    support_friction: String,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -55,6 +61,11 @@ pub(crate) fn run(args: &SimArgs) -> Result<()> {
     let settings = SimSettings {
         step_um: args.step_um,
         n_directions: args.n_directions,
+        support_friction: if args.support_friction == "polygon" {
+            SupportFriction::Polygon
+        } else {
+            SupportFriction::Coulomb
+        },
         ..Default::default()
     };
     let mut sim = Simulator::new(model, fixture, settings)?;
