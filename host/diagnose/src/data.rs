@@ -39,6 +39,9 @@ pub struct TrialData {
     /// How deep the recorded pusher may start inside the part (trial.json
     /// `registration_tol_um`), µm; `None`: the simulator's default.
     pub registration_tol_um: Option<f64>,
+    /// pose.csv rows the loader dropped (stamped slightly before the row above: recording
+    /// jitter, docs/trial-log.md), counted so nothing is lost silently.
+    pub pose_rows_dropped: usize,
     /// Times of the `log_gap` events, s: the pusher's path before each is not recorded, so a
     /// replay restarts there from the measured pose.
     pub log_gaps_s: Vec<f64>,
@@ -119,6 +122,7 @@ impl TrialData {
             probe_radius_um: trial.meta.pusher().max_radius_um(),
             pusher: trial.meta.pusher(),
             registration_tol_um: trial.meta.registration_tol_um,
+            pose_rows_dropped: trial.pose_rows_dropped.len(),
             log_gaps_s: trial
                 .events
                 .iter()

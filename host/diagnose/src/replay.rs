@@ -35,6 +35,8 @@ pub struct TrialReplay {
     pub n_poses: usize,
     /// Path segments on which the simulated part wedged.
     pub jams: usize,
+    /// pose.csv rows the loader dropped for recording jitter (not compared).
+    pub pose_rows_dropped: usize,
     /// Predicted poses at the measured times (for the figure; not in the JSON).
     #[serde(skip)]
     pub predicted: Vec<(f64, Pose)>,
@@ -92,6 +94,7 @@ pub fn replay_trial(
         rms_deg: (sq_deg / n as f64).sqrt(),
         n_poses: n,
         jams: pred.jams,
+        pose_rows_dropped: data.pose_rows_dropped,
         predicted: data.frames.iter().zip(&pred.poses).map(|(m, p)| (m.t_s, *p)).collect(),
     })
 }

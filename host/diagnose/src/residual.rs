@@ -338,6 +338,7 @@ mod tests {
             probe_radius_um: 12.5,
             pusher: mesopush_sim::Pusher::single(12.5),
             registration_tol_um: None,
+            pose_rows_dropped: 0,
             log_gaps_s: Vec::new(),
             fixture: open_plate(),
             cmd,

@@ -237,6 +237,7 @@ pub fn write_trial(
         probe_radius_um: truth.probe_radius_um,
         pusher: truth.pusher(),
         registration_tol_um: None,
+        pose_rows_dropped: 0,
         log_gaps_s: Vec::new(),
         fixture: open_plate(),
         cmd: cmd.clone(),

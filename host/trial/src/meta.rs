@@ -172,25 +172,6 @@ impl TrialMeta {
         self.pusher.clone()
     }
 
-    /// The probe radius when the pusher is one disc at its reference point (the paper's
-    /// probe, all that version 1 could record), µm; refuses any other pusher, naming it, for
-    /// the stages that model only such a probe.
-    pub fn probe_radius_um(&self) -> Result<f64, Error> {
-        match self.pusher.discs.as_slice() {
-            [d] if d.center_um == [0.0, 0.0] => Ok(d.radius_um),
-            discs => Err(Error::invalid(
-                "trial.json pusher",
-                format!(
-                    "trial {}: the pusher has {} disc(s) {:?}; this stage models only one disc \
-                     centred on the reference point",
-                    self.trial_id,
-                    discs.len(),
-                    discs.iter().map(|d| (d.center_um, d.radius_um)).collect::<Vec<_>>()
-                ),
-            )),
-        }
-    }
-
     /// Checks the format marker, version, units, pusher and frame period (the rules every
     /// loaded file meets; writers may call it before writing).
     pub fn check(&self) -> Result<(), Error> {

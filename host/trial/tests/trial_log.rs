@@ -146,7 +146,7 @@ fn a_trial_tracked_elsewhere_of_another_part_loads() {
     .unwrap();
     let t = Trial::load(dir.path()).unwrap();
     assert_eq!(t.meta.part.polygon().len(), 6);
-    assert_eq!(t.meta.probe_radius_um().unwrap(), 12.5);
+    assert_eq!(t.meta.pusher(), mesopush_sim::Pusher::single(12.5));
     assert!(t.frames.is_empty());
     assert_eq!(t.first_pose().unwrap().x_um, 200.0);
 }

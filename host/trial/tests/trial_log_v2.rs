@@ -83,7 +83,7 @@ fn version_1_reads_as_a_one_disc_pusher() {
     write(dir.path(), &v1(r#""probe_radius_um": 4.7, "frame_period_us": 33333,"#), PROBE, POSE);
     let t = Trial::load(dir.path()).unwrap();
     assert_eq!(t.meta.pusher(), Pusher::single(4.7));
-    assert_eq!(t.meta.probe_radius_um().unwrap(), 4.7);
+    assert_eq!(t.meta.pusher(), Pusher::single(4.7));
     assert_eq!(t.meta.frame_period_us, Some(33_333.0));
     assert_eq!(t.meta.format_version, 2, "a version-1 file loads as its version-2 equivalent");
     assert!(t.commanded_path().iter().all(|p| p.probe_theta_rad == 0.0));
@@ -144,7 +144,7 @@ fn version_2_round_trips_a_two_disc_pusher_and_the_angle() {
     let p = t.commanded_path();
     assert_eq!(p[49].probe_theta_rad, angled(49).cmd_theta_rad.unwrap());
     assert_eq!((p[10].probe_um.x, p[10].probe_um.y), (-1900.0, 5.0));
-    assert!(t.meta.probe_radius_um().unwrap_err().to_string().contains("2 disc(s)"));
+    assert_eq!(t.meta.pusher().discs.len(), 2);
 }
 
 #[test]

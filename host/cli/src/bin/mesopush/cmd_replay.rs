@@ -96,6 +96,10 @@ fn print_text(r: &ReplayReport, out: &std::path::Path) {
             r.trials.len()
         );
     }
+    let dropped: usize = r.trials.iter().map(|t| t.pose_rows_dropped).sum();
+    if dropped > 0 {
+        println!("pose.csv rows dropped for recording jitter (not compared): {dropped}");
+    }
     for f in &r.failures {
         println!("NOT replayed: {}: {}", f.trial, f.reason);
     }
