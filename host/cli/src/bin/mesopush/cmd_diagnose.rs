@@ -6,6 +6,7 @@
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use mesopush_diagnose::confusion::{self, ConfusionSettings};
 use mesopush_diagnose::data::load_split;
 use mesopush_diagnose::report;
 use mesopush_diagnose::rig_batch::write_rig_batch;
@@ -32,7 +33,7 @@ enum Mode {
     Rig(RigArgs),
     /// Blind diagnoses of synthetic batches of every effect and clean controls: the
     /// confusion matrix and before/after errors.
-    Confusion(super::cmd_diagnose_confusion::ConfusionArgs),
+    Confusion(ConfusionArgs),
 }
 
 /// The fit budgets of a diagnosis.
@@ -164,6 +165,56 @@ pub(crate) fn run(args: &DiagnoseArgs) -> Result<()> {
             println!("wrote {} trials under {}", dirs.len(), a.out.display());
             Ok(())
         }
-        Mode::Confusion(a) => super::cmd_diagnose_confusion::run(a),
+        Mode::Confusion(a) => run_confusion(a),
     }
+}
+
+// `diagnose confusion`: the experiment's settings, a log line per batch and a progress bar
+// on stderr, then the confusion matrix and the per-batch errors.
+
+#[derive(Debug, Args)]
+struct ConfusionArgs {
+    /// Batches per true effect (seeds --seed, --seed + 1, ...).
+    #[arg(long, default_value_t = 3)]
+    seeds: usize,
+    /// Only these true effects (comma-separated library names, `none` for the clean
+    /// control); default every effect and the clean control.
+    #[arg(long, value_delimiter = ',', value_name = "EFFECTS")]
+    only: Vec<String>,
+    /// Seed of each effect's first batch.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Directory the batches are written to (`<effect>-<seed>` each).
+    #[arg(long, default_value = "runs/diagnose")]
+    out: PathBuf,
+    /// Trials per batch.
+    #[arg(long, default_value_t = 6)]
+    n_trials: usize,
+    /// Strokes per synthetic trial.
+    #[arg(long, default_value_t = 3)]
+    strokes: usize,
+    #[command(flatten)]
+    budgets: Budgets,
+}
+
+fn run_confusion(args: &ConfusionArgs) -> Result<()> {
+    let mut settings = ConfusionSettings::new(&args.out);
+    if !args.only.is_empty() {
+        settings.truths = args.only.iter().map(|n| effect(n)).collect::<Result<_>>()?;
+    }
+    settings.seeds = args.seeds;
+    settings.first_seed = args.seed;
+    settings.n_trials = args.n_trials;
+    settings.strokes = args.strokes;
+    settings.options = args.budgets.options();
+    let started = std::time::Instant::now();
+    let pb = ProgressBar::new((settings.truths.len() * settings.seeds) as u64);
+    let report = confusion::run(&settings, &mut |truth, seed, outcome| {
+        eprintln!("{}", confusion::batch_line(truth, seed, outcome));
+        pb.inc(1);
+    })?;
+    pb.finish_and_clear();
+    eprintln!("{} batches in {:.0} s", report.rows.len(), started.elapsed().as_secs_f64());
+    print!("{}", report.text());
+    Ok(())
 }

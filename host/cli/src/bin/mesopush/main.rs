@@ -7,7 +7,6 @@
 mod cmd_batch;
 mod cmd_demo;
 mod cmd_diagnose;
-mod cmd_diagnose_confusion;
 mod cmd_flash;
 mod cmd_identify;
 mod cmd_import;
