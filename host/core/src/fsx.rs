@@ -1,7 +1,9 @@
 //! Durable-filesystem helpers, the one set every host crate writes through: atomic writes
-//! (a synced temporary renamed over the target, then the directory synced: a killed writer
-//! leaves the old file or none, never half of one), synced writes, directory fsyncs, and
-//! renaming a directory aside under a free name (never deleting it).
+//! (the project's one implementation, `mesopush-fsx`, which the executor uses too: a synced
+//! temporary renamed over the target, then the directory synced: a killed writer leaves the
+//! old file or none, never half of one), synced writes, directory fsyncs, and renaming a
+//! directory aside under a free name (never deleting it). Here they report the host's
+//! error, naming the file.
 
 use crate::Error;
 use std::fs::File;
@@ -19,14 +21,9 @@ pub fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), Error> {
 }
 
 /// Writes `bytes` to `path` crash-safely: a synced temporary beside it (`<name>.tmp`)
-/// renamed over it, then the directory synced.
+/// renamed over it, then the directory synced (`mesopush_fsx::write_atomic`).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Error> {
-    let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
-    tmp_name.push(".tmp");
-    let tmp = path.with_file_name(tmp_name);
-    write_synced(&tmp, bytes)?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))?;
-    path.parent().map_or(Ok(()), sync_dir)
+    mesopush_fsx::write_atomic(path, bytes).map_err(|e| Error::io(path, e))
 }
 
 /// Writes `value` as JSON to `path` crash-safely ([`write_atomic`]).
@@ -43,8 +40,7 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, Error
 
 /// Fsyncs a directory (so renames and new entries in it survive a crash).
 pub fn sync_dir(dir: &Path) -> Result<(), Error> {
-    let dir = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };
-    File::open(dir).and_then(|d| d.sync_all()).map_err(|e| Error::io(dir, e))
+    mesopush_fsx::sync_dir(dir).map_err(|e| Error::io(dir, e))
 }
 
 /// Renames `dir` to `<dir>.<tag>-K` with the first free K; returns the new path.

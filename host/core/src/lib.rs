@@ -6,7 +6,8 @@
 //! `f64`, with the unit in every field name (`x_um`, `theta_rad`, `speed_um_s`). Conversions
 //! to the wire's sized integers live in `mesopush_protocol::units` only.
 //!
-//! May depend on: nothing of mesopush. Every other host crate depends on it.
+//! May depend on: `mesopush-fsx` (the one atomic file write, shared with the executor) and
+//! nothing else of mesopush. Every other host crate depends on it.
 
 pub mod error;
 pub mod fsx;
