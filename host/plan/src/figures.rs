@@ -5,7 +5,7 @@
 use crate::Error;
 use crate::montecarlo::{SampleOutcome, SweepPoint};
 use mesopush_plot::{DrawResult, Figure, PlanFigure, draw_plan, save};
-use mesopush_sim::{Plan, Simulator, replay};
+use mesopush_sim::{Plan, Replay, Simulator, replay};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -17,6 +17,12 @@ type Coord<'a> = &'a dyn Fn(&SampleOutcome) -> f64;
 /// fixture) to `path` (.png or .svg).
 pub fn draw_replayed_plan(sim: &mut Simulator, plan: &Plan, path: &Path) -> Result<(), Error> {
     let r = replay(sim, plan, None)?;
+    draw_replay(sim, plan, &r, path)
+}
+
+/// Draws `r`, a replay of `plan` in `sim`, as a plan view (walls, goal, peg outlines, probe
+/// path; the title says whether it inserted) to `path`.
+pub fn draw_replay(sim: &Simulator, plan: &Plan, r: &Replay, path: &Path) -> Result<(), Error> {
     let poses: Vec<_> = r.samples.iter().map(|s| s.peg).collect();
     let probe: Vec<_> = r.samples.iter().map(|s| s.probe_um).collect();
     let title = format!("{} — {}", plan.name, if r.inserted { "inserted" } else { "NOT inserted" });

@@ -5,7 +5,6 @@ use anyhow::{Context, Result};
 use clap::Args;
 use mesopush_core::geom::Vec2;
 use mesopush_core::stats::percentile;
-use mesopush_plot::{PlanFigure, draw_plan};
 use mesopush_sim::{
     Fixture, Model, Plan, Replay, SimSettings, SimState, Simulator, SupportFriction, replay,
     trajectory,
@@ -86,19 +85,7 @@ pub(crate) fn run(args: &SimArgs) -> Result<()> {
 }
 
 fn figure(sim: &Simulator, plan: &Plan, r: &Replay, path: &std::path::Path) -> Result<()> {
-    let poses: Vec<_> = r.samples.iter().map(|s| s.peg).collect();
-    let probe: Vec<_> = r.samples.iter().map(|s| s.probe_um).collect();
-    let title = format!("{} — {}", plan.name, if r.inserted { "inserted" } else { "NOT inserted" });
-    let fig = PlanFigure {
-        title: &title,
-        walls: &sim.fixture().walls,
-        goal: Some(&sim.fixture().goal),
-        part: sim.model().part.polygon(),
-        poses: &poses,
-        probe_um: &probe,
-        max_outlines: 25,
-    };
-    Ok(draw_plan(&fig, path)?)
+    Ok(mesopush_plan::figures::draw_replay(sim, plan, r, path)?)
 }
 
 fn print_result(r: &Replay, csv: &std::path::Path, figs: &[PathBuf], as_json: bool) {
