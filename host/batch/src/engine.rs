@@ -8,12 +8,16 @@
 //! the `host::trial` format, one per attempt).
 
 use super::check;
+use super::digest::{self, DirChecksum};
+use super::integrity::{Finding, Integrity, verify};
 use super::journal::{AttemptRecord, JOURNAL, Journal, Record};
+use super::leftovers;
+use super::lock::BatchLock;
 use super::runner::{RunnerFactory, TrialJob, TrialResult, TrialVerdict};
 use super::spec::{BatchSpec, attempt_seed, trial_id, trial_seed};
+pub use super::spec::{TRIALS_DIR, attempt_dir};
 use super::supervise::Supervisor;
 use crate::Error;
-use mesopush_core::fsx;
 use mesopush_core::geom::Pose;
 use mesopush_core::shard::Shard;
 use mesopush_sim::Plan;
@@ -28,8 +32,6 @@ use std::time::{Duration, Instant};
 pub const MANIFEST: &str = "batch.json";
 /// The manifest's format marker.
 pub const FORMAT: &str = "mesopush-batch";
-/// Trial directories live here, inside the batch directory.
-pub const TRIALS_DIR: &str = "trials";
 
 /// `batch.json`: what this directory holds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -127,6 +129,9 @@ pub struct Session {
     pub restarts: u64,
     /// A torn journal line saved here, when one was found.
     pub torn_saved_to: Option<PathBuf>,
+    /// Final records this session found lost, damaged, duplicated or foreign when it
+    /// started, and set aside (voided) before running their trials again.
+    pub found: Vec<Finding>,
     /// Wall-clock time of the session, s.
     pub elapsed_s: f64,
 }
@@ -136,11 +141,6 @@ pub fn peg_start(spec: &BatchSpec, plans: &[Plan], seed: u64) -> Pose {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let [x, y, t] = spec.world.perturbation;
     plans[0].perturbed_starts(&mut rng, 1, (x, y, t))[0]
-}
-
-/// Directory of an attempt, relative to the batch directory.
-pub fn attempt_dir(index: u64, attempt: u32) -> String {
-    format!("{TRIALS_DIR}/{}-a{attempt}", trial_id(index))
 }
 
 fn open_manifest(cfg: &BatchConfig) -> Result<(), Error> {
@@ -179,49 +179,40 @@ struct State {
     next_attempt: BTreeMap<u64, u32>,
 }
 
-fn replay_journal(records: &[Record]) -> State {
+/// The trials with an accepted final record, and the next attempt of each retried one.
+fn replay_journal(records: &[Record], integrity: &Integrity) -> State {
     let mut s = State::default();
+    for (index, i) in &integrity.accepted {
+        if let Record::Trial(a) = &records[*i] {
+            s.done.insert(*index, a.result.verdict);
+        }
+    }
     for r in records {
-        match r {
-            Record::Trial(a) => {
-                s.done.insert(a.index, a.result.verdict);
-            }
-            Record::Attempt(a) => {
-                s.next_attempt.insert(a.index, a.attempt + 1);
-            }
-            Record::Begin { .. } | Record::Discarded { .. } => {}
+        if let Record::Attempt(a) = r {
+            s.next_attempt.insert(a.index, a.attempt + 1);
         }
     }
     s
 }
 
-/// Sets aside every attempt directory of unfinished trials that an interrupted run left.
-fn discard_leftovers(
-    cfg: &BatchConfig,
-    state: &State,
-    journal: &mut Journal,
-) -> Result<u64, Error> {
-    let mut n = 0;
-    let max = cfg.spec.policy.max_attempts;
-    for index in (0..cfg.spec.trials).filter(|i| cfg.shard.owns(*i) && !state.done.contains_key(i))
-    {
-        let first = state.next_attempt.get(&index).copied().unwrap_or(1);
-        for attempt in first..=max {
-            let dir = cfg.out.join(attempt_dir(index, attempt));
-            if !dir.exists() {
-                continue;
-            }
-            let found = check::state_of(&dir);
-            let to = fsx::rename_aside(&dir, "discarded")?;
-            let renamed_to = to.strip_prefix(&cfg.out).unwrap_or(&to).to_string_lossy().into();
-            journal.append(&Record::Discarded { index, attempt, renamed_to, found })?;
-            n += 1;
-        }
+/// Sets aside (journals a `voided` record for) every final record that does not count:
+/// lost, damaged, duplicated or foreign. Their trials, when this batch's and left without
+/// a good final record, then run again like unfinished ones.
+fn void_findings(integrity: &Integrity, journal: &mut Journal) -> Result<(), Error> {
+    for f in &integrity.findings {
+        journal.append(&Record::Voided {
+            record: f.record,
+            index: f.index,
+            dir: f.dir.clone(),
+            problem: f.problem,
+            detail: f.detail.clone(),
+        })?;
     }
-    Ok(n)
+    Ok(())
 }
 
-/// Runs (or resumes) the batch; calls `on_progress` after every trial.
+/// Runs (or resumes) the batch; calls `on_progress` after every trial. Holds the batch
+/// directory's lock ([`BatchLock`]) throughout: a second process fails at once.
 pub fn run(
     cfg: &BatchConfig,
     factory: RunnerFactory,
@@ -229,18 +220,36 @@ pub fn run(
 ) -> Result<Session, Error> {
     let t0 = Instant::now();
     cfg.spec.validate()?;
+    if cfg.max_trials == Some(0) {
+        return Err(Error::invalid("--max-trials", "0: must be at least 1 (omit it to run all)"));
+    }
+    let _lock = BatchLock::exclusive(&cfg.out)?;
     open_manifest(cfg)?;
     let (mut journal, opened) = Journal::open(&cfg.out.join(JOURNAL))?;
-    let mut state = replay_journal(&opened.records);
+    let integrity = verify(&cfg.out, &cfg.spec, cfg.shard, &opened.records);
+    void_findings(&integrity, &mut journal)?;
+    let mut state = replay_journal(&opened.records, &integrity);
     let mut session = Session {
         resumed: state.done.len() as u64,
         torn_saved_to: opened.torn_saved_to,
+        found: integrity.findings,
         ..Default::default()
     };
-    session.discarded = discard_leftovers(cfg, &state, &mut journal)?;
+    let owned = |i: &u64| cfg.shard.owns(*i);
+    let unfinished: BTreeMap<u64, u32> = (0..cfg.spec.trials)
+        .filter(|i| owned(i) && !state.done.contains_key(i))
+        .map(|i| (i, state.next_attempt.get(&i).copied().unwrap_or(1)))
+        .collect();
+    session.discarded = leftovers::set_aside(
+        &cfg.out,
+        &unfinished,
+        cfg.spec.policy.max_attempts,
+        &opened.records,
+        &mut journal,
+    )?;
     let mut sup = Supervisor::new(factory)?;
     let plans = Arc::new(cfg.plans.clone());
-    let total = (0..cfg.spec.trials).filter(|i| cfg.shard.owns(*i)).count() as u64;
+    let total = (0..cfg.spec.trials).filter(owned).count() as u64;
     let count_ok = |s: &State| s.done.values().filter(|v| **v == TrialVerdict::Inserted).count();
     let mut progress = BatchProgress {
         done: session.resumed,
@@ -249,12 +258,8 @@ pub fn run(
         resumed: session.resumed,
     };
     on_progress(&progress);
-    let todo: Vec<u64> = (0..cfg.spec.trials)
-        .filter(|i| cfg.shard.owns(*i) && !state.done.contains_key(i))
-        .take(cfg.max_trials.map_or(usize::MAX, |m| m as usize))
-        .collect();
-    for index in todo {
-        let first = state.next_attempt.get(&index).copied().unwrap_or(1);
+    let take = cfg.max_trials.map_or(usize::MAX, |m| usize::try_from(m).unwrap_or(usize::MAX));
+    for (&index, &first) in unfinished.iter().take(take) {
         let verdict = run_trial(cfg, &mut sup, &mut journal, &plans, index, first)?;
         state.done.insert(index, verdict);
         session.ran += 1;
@@ -265,6 +270,19 @@ pub fn run(
     session.restarts = sup.restarts;
     session.elapsed_s = t0.elapsed().as_secs_f64();
     Ok(session)
+}
+
+/// The checksum recorded with a final record: the directory's, unless a runner abandoned
+/// or cancelled after its budget may still be writing into it.
+fn final_checksum(
+    abs: &Path,
+    verdict: TrialVerdict,
+    abandoned: bool,
+) -> Result<DirChecksum, Error> {
+    if abandoned || verdict == TrialVerdict::Timeout {
+        return Ok(DirChecksum::Unsettled { present: abs.exists() });
+    }
+    digest::of_dir(abs)
 }
 
 /// Runs the attempts of one trial from attempt `first`; returns its final verdict.
@@ -310,13 +328,15 @@ fn run_trial(
             dir,
             result,
             wall_time_s: t0.elapsed().as_secs_f64(),
+            checksum: None,
         };
         if policy.retry_on.contains(&verdict) && attempt < policy.max_attempts {
             journal.append(&Record::Attempt(rec))?;
             attempt += 1;
             continue;
         }
-        journal.append(&Record::Trial(rec))?;
+        let checksum = final_checksum(&abs, verdict, sup.abandoned_last)?;
+        journal.append(&Record::Trial(AttemptRecord { checksum: Some(checksum), ..rec }))?;
         return Ok(verdict);
     }
 }

@@ -30,6 +30,17 @@ pub enum Error {
         /// The value and the rule it breaks.
         message: String,
     },
+    /// Another process holds the batch directory's lock (`batch.lock`, see [`crate::lock`]).
+    #[error(
+        "batch directory {path} is in use: locked by {holder}; wait for it to finish or stop \
+         it (the lock is released when that process exits, however it exits)"
+    )]
+    Locked {
+        /// The batch directory.
+        path: PathBuf,
+        /// Who holds it: pid, host, start time, command.
+        holder: String,
+    },
     /// A shared helper (atomic file, shard set) failed.
     #[error(transparent)]
     Core(#[from] mesopush_core::Error),

@@ -3,7 +3,11 @@
 //! done exactly when its `trial` record is in the journal. A line torn by a crash (the
 //! process killed mid-write) is moved aside to `journal.torn-N` on open and cut off, so the
 //! journal always ends on a whole record and nothing written is deleted.
+//!
+//! Records are numbered by position (0-based, whole records only; a torn tail is never a
+//! record), which is how a `voided` record names the final record it sets aside.
 
+use super::digest::DirChecksum;
 use super::runner::TrialResult;
 use crate::Error;
 use mesopush_core::geom::Pose;
@@ -28,8 +32,10 @@ pub enum Record {
         /// Trial directory, relative to the batch directory.
         dir: String,
     },
-    /// A directory left by an interrupted run was set aside (renamed, never deleted) so
-    /// its attempt can run again from scratch.
+    /// A directory left by an interrupted run is set aside (renamed, never deleted) so its
+    /// attempt can run again from scratch. Written (fsynced) *before* the rename: a kill
+    /// between the two leaves the directory under its old name and this record, and the
+    /// next run completes the rename to `renamed_to` without a second record.
     Discarded {
         /// Trial index.
         index: u64,
@@ -44,6 +50,49 @@ pub enum Record {
     Attempt(AttemptRecord),
     /// The trial's final record: exactly one per trial.
     Trial(AttemptRecord),
+    /// A resume found the final record number `record` lost, damaged, duplicated or
+    /// foreign and set it aside: it no longer counts, and a trial of this batch left
+    /// without a good final record runs again.
+    Voided {
+        /// Position of the voided `trial` record in this journal (0-based).
+        record: u64,
+        /// Its trial index.
+        index: u64,
+        /// Its directory.
+        dir: String,
+        /// What was wrong.
+        problem: Problem,
+        /// Details (recorded and found checksums, the missing path, …).
+        detail: String,
+    },
+}
+
+/// What can be wrong with a final record (`batch report`, a resume; docs/batch.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Problem {
+    /// Its trial directory is gone.
+    Lost,
+    /// Its trial directory no longer matches the recorded checksum (truncated, changed,
+    /// unreadable).
+    Damaged,
+    /// Another good final record of the same trial came first.
+    Duplicated,
+    /// Not a trial of this batch directory: index outside the batch or its shard, or a
+    /// trial id or seed that does not belong to the index.
+    Foreign,
+}
+
+impl Problem {
+    /// Lower-case name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Problem::Lost => "lost",
+            Problem::Damaged => "damaged",
+            Problem::Duplicated => "duplicated",
+            Problem::Foreign => "foreign",
+        }
+    }
 }
 
 /// An ended attempt (final or retried).
@@ -70,6 +119,10 @@ pub struct AttemptRecord {
     pub result: TrialResult,
     /// Wall-clock time of the attempt including its log checks, s.
     pub wall_time_s: f64,
+    /// The checksum of `dir` when the record was written (absent in journals written
+    /// before checksums: such records are counted `unverified`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checksum: Option<DirChecksum>,
 }
 
 /// An open journal.
@@ -232,6 +285,7 @@ mod tests {
                 dir: String::new(),
                 result: result.clone(),
                 wall_time_s: v(),
+                checksum: None,
             });
             text.push_str(&serde_json::to_string(&r).unwrap());
             text.push('\n');

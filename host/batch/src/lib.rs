@@ -10,11 +10,15 @@
 //! whole loop). Never on identification, diagnosis or the CLI.
 
 pub mod check;
+pub mod digest;
 pub mod engine;
 pub mod error;
 pub mod factory;
 pub mod figures;
+pub mod integrity;
 pub mod journal;
+pub mod leftovers;
+pub mod lock;
 pub mod merge;
 pub mod policy;
 pub mod report;

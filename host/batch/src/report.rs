@@ -91,8 +91,9 @@ fn markdown(b: &Loaded, s: &Summary, finals: &[&AttemptRecord]) -> String {
     let _ = writeln!(m, "- runner `{runner}`, seed {}, plans: {}", spec.seed, plans.join("; "));
     let _ = writeln!(
         m,
-        "- trials with a verdict: **{}** of {} expected ({} missing, {} duplicated)",
-        s.trials, s.expected, s.missing, s.duplicates
+        "- trials with a verified verdict: **{}** of {} expected ({} missing; final records \
+         lost {}, damaged {}, duplicated {}, foreign {})",
+        s.trials, s.expected, s.missing, s.lost, s.damaged, s.duplicates, s.foreign
     );
     let _ = writeln!(
         m,
@@ -114,6 +115,7 @@ fn markdown(b: &Loaded, s: &Summary, finals: &[&AttemptRecord]) -> String {
         let _ = writeln!(m, "| {v} | {n} |");
     }
     faults_and_reasons(&mut m, s);
+    integrity(&mut m, s);
     timing(&mut m, s, finals);
     m.push_str("## Figures\n\n![success over time](success.png)\n\n![final poses](final_poses.png)\n\n![timing](timing.png)\n\n");
     m.push_str("Per-trial rows: `trials.csv`; summary: `summary.json`.\n");
@@ -155,6 +157,45 @@ fn faults_and_reasons(m: &mut String, s: &Summary) {
             r.trials
         );
     }
+}
+
+/// Findings shown in report.md (all of them are in summary.json).
+const MAX_FINDINGS_SHOWN: usize = 50;
+
+fn integrity(m: &mut String, s: &Summary) {
+    m.push_str("## Data integrity\n\nEvery final record checked against its trial directory's checksum (docs/batch.md).\n\n| | |\n|---|---:|\n");
+    for (what, n) in [
+        ("final records lost (directory gone)", s.lost),
+        ("final records damaged (checksum mismatch)", s.damaged),
+        ("final records duplicated", s.duplicates),
+        ("final records foreign (not a trial of this batch)", s.foreign),
+        ("accepted without a checksum to verify", s.unverified),
+        ("set aside by earlier resumes and run again", s.voided),
+    ] {
+        let _ = writeln!(m, "| {what} | {n} |");
+    }
+    if s.findings.is_empty() {
+        m.push('\n');
+        return;
+    }
+    m.push_str(
+        "\n| journal record | trial | problem | directory | evidence |\n|---:|---|---|---|---|\n",
+    );
+    for f in s.findings.iter().take(MAX_FINDINGS_SHOWN) {
+        let _ = writeln!(
+            m,
+            "| {} | {} | **{}** | {} | {} |",
+            f.record,
+            f.trial_id,
+            f.problem.as_str(),
+            f.dir,
+            f.detail.replace('|', "/")
+        );
+    }
+    if s.findings.len() > MAX_FINDINGS_SHOWN {
+        let _ = writeln!(m, "\n… {} more in summary.json", s.findings.len() - MAX_FINDINGS_SHOWN);
+    }
+    m.push('\n');
 }
 
 fn timing(m: &mut String, s: &Summary, finals: &[&AttemptRecord]) {

@@ -263,6 +263,14 @@ pub fn trial_id(index: u64) -> String {
     format!("trial-{index:06}")
 }
 
+/// Trial directories live here, inside the batch directory.
+pub const TRIALS_DIR: &str = "trials";
+
+/// Directory of an attempt, relative to the batch directory.
+pub fn attempt_dir(index: u64, attempt: u32) -> String {
+    format!("{TRIALS_DIR}/{}-a{attempt}", trial_id(index))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,37 +4,46 @@
 //! and a merge of shards, so `--json`, the report and the merge agree.
 
 use super::engine::Manifest;
-use super::journal::{AttemptRecord, JOURNAL, Record, read};
+use super::integrity::{Finding, Integrity, verify};
+use super::journal::{AttemptRecord, JOURNAL, Problem, Record, read};
 use super::runner::TrialVerdict;
 use crate::Error;
 use serde::Serialize;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-/// A batch directory, loaded.
+/// A batch directory, loaded and its final records verified against their directories.
 #[derive(Debug, Clone)]
 pub struct Loaded {
     /// `batch.json`.
     pub manifest: Manifest,
     /// The journal.
     pub records: Vec<Record>,
+    /// Which final records count, and what is wrong with the others.
+    pub integrity: Integrity,
 }
 
 impl Loaded {
-    /// Reads `dir`'s manifest and journal (a torn last line is ignored, not repaired).
+    /// Reads `dir`'s manifest and journal (a torn last line is ignored, not repaired) and
+    /// verifies every final record against its trial directory.
     pub fn load(dir: &Path) -> Result<Self, Error> {
         let manifest = Manifest::load(dir)?;
         let path = dir.join(JOURNAL);
         let records = if path.exists() { read(&path)? } else { Vec::new() };
-        Ok(Self { manifest, records })
+        let integrity = verify(dir, &manifest.spec, manifest.shard, &records);
+        Ok(Self { manifest, records, integrity })
     }
 
-    /// The final record of every trial, by index (the last one wins if a journal somehow
-    /// holds two; [`Summary::duplicates`] counts that).
+    /// The accepted final record of every trial, by index (lost, damaged, duplicated,
+    /// foreign and voided records excluded; [`Loaded::integrity`] lists them).
     pub fn finals(&self) -> BTreeMap<u64, &AttemptRecord> {
-        self.records
+        self.integrity
+            .accepted
             .iter()
-            .filter_map(|r| if let Record::Trial(a) = r { Some((a.index, a)) } else { None })
+            .filter_map(|(index, i)| match &self.records[*i] {
+                Record::Trial(a) => Some((*index, a)),
+                _ => None,
+            })
             .collect()
     }
 }
@@ -55,14 +64,28 @@ pub struct ReasonCount {
 pub struct Summary {
     /// Batch name.
     pub name: String,
-    /// Trials with a final verdict.
+    /// Trials with an accepted final verdict (verified against their directories).
     pub trials: u64,
     /// Trials this directory is meant to hold (its shard, or the whole batch).
     pub expected: u64,
-    /// Expected trials with no final verdict yet.
+    /// Expected trials with no final record at all yet.
     pub missing: u64,
-    /// Trials with more than one final record (must be 0).
+    /// Final records of a trial that already has a good one (must be 0).
     pub duplicates: u64,
+    /// Final records whose trial directory is gone (must be 0).
+    pub lost: u64,
+    /// Final records whose trial directory no longer matches its checksum (must be 0).
+    pub damaged: u64,
+    /// Final records of trials this directory does not hold (must be 0).
+    pub foreign: u64,
+    /// Accepted final records without a checksum to verify (journals written before
+    /// checksums; timed-out attempts, whose runner may have still been writing).
+    pub unverified: u64,
+    /// Final records set aside by earlier resumes as lost, damaged, duplicated or foreign
+    /// (their trials were run again).
+    pub voided: u64,
+    /// Every final record that does not count, with the evidence.
+    pub findings: Vec<Finding>,
     /// TrialVerdict `inserted`.
     pub succeeded: u64,
     /// TrialVerdict `missed`.
@@ -87,7 +110,8 @@ pub struct Summary {
     pub faults_detected: u64,
     /// The same by class (see docs/batch.md, "Faults injected and detected").
     pub faults_by_class: mesopush_rig::FaultClasses,
-    /// Records lost, over every attempt (must be 0).
+    /// Records lost (must be 0): records missing from the trial logs over every attempt,
+    /// plus final records whose trial directory is lost or damaged.
     pub records_lost: u64,
     /// Wall-clock time of all attempts, s.
     pub wall_time_s: f64,
@@ -97,6 +121,28 @@ pub struct Summary {
     pub sim_time_s: f64,
     /// Failure reasons, most frequent first.
     pub reasons: Vec<ReasonCount>,
+}
+
+impl Summary {
+    /// Whether any record is lost, damaged, duplicated or foreign (the commands exit 1).
+    pub fn has_integrity_problems(&self) -> bool {
+        self.records_lost > 0 || self.duplicates > 0 || self.foreign > 0
+    }
+
+    /// `records lost 2 (1 in trial logs, final directories: 1 lost, 0 damaged), 0 duplicated, 0 foreign`.
+    pub fn integrity_line(&self) -> String {
+        format!(
+            "records lost {} (in trial logs {}; final trial directories: {} lost, {} damaged); \
+             final records duplicated {}, foreign {}; unverified {}",
+            self.records_lost,
+            self.records_lost - self.lost - self.damaged,
+            self.lost,
+            self.damaged,
+            self.duplicates,
+            self.foreign,
+            self.unverified
+        )
+    }
 }
 
 /// Wilson score interval for `k` successes in `n` trials at z = 1.96.
@@ -131,15 +177,21 @@ pub fn summarize(b: &Loaded) -> Summary {
     let shard = b.manifest.shard;
     let expected = (0..spec.trials).filter(|i| shard.owns(*i)).count() as u64;
     let finals = b.finals();
-    let all_finals = b.records.iter().filter(|r| matches!(r, Record::Trial(_))).count() as u64;
+    let integ = &b.integrity;
     let n = finals.len() as u64;
     let count = |v: TrialVerdict| finals.values().filter(|a| a.result.verdict == v).count() as u64;
     let mut s = Summary {
         name: spec.name.clone(),
         trials: n,
         expected,
-        missing: expected.saturating_sub(n),
-        duplicates: all_finals - n,
+        missing: expected.saturating_sub(integ.recorded.len() as u64),
+        duplicates: integ.count(Problem::Duplicated),
+        lost: integ.count(Problem::Lost),
+        damaged: integ.count(Problem::Damaged),
+        foreign: integ.count(Problem::Foreign),
+        unverified: integ.unverified,
+        voided: integ.voided,
+        findings: integ.findings.clone(),
         succeeded: count(TrialVerdict::Inserted),
         missed: count(TrialVerdict::Missed),
         faulted: count(TrialVerdict::Faulted),
@@ -152,15 +204,17 @@ pub fn summarize(b: &Loaded) -> Summary {
         faults_injected: 0,
         faults_detected: 0,
         faults_by_class: mesopush_rig::FaultClasses::default(),
-        records_lost: 0,
+        records_lost: integ.count(Problem::Lost) + integ.count(Problem::Damaged),
         wall_time_s: 0.0,
         trials_per_s: 0.0,
         sim_time_s: 0.0,
         reasons: count_reasons(finals.values().copied()),
     };
     s.success_rate = if n == 0 { 0.0 } else { s.succeeded as f64 / n as f64 };
-    for r in &b.records {
+    let counted: BTreeSet<usize> = integ.accepted.values().copied().collect();
+    for (i, r) in b.records.iter().enumerate() {
         match r {
+            Record::Trial(_) if !counted.contains(&i) => {}
             Record::Attempt(a) | Record::Trial(a) => {
                 s.attempts += 1;
                 s.faults_injected += a.result.faults_injected;
@@ -171,7 +225,7 @@ pub fn summarize(b: &Loaded) -> Summary {
                 s.sim_time_s += a.result.sim_time_s;
             }
             Record::Discarded { .. } => s.discarded += 1,
-            Record::Begin { .. } => {}
+            Record::Begin { .. } | Record::Voided { .. } => {}
         }
     }
     s.trials_per_s = if s.wall_time_s > 0.0 { n as f64 / s.wall_time_s } else { 0.0 };

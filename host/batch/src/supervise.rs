@@ -18,6 +18,9 @@ pub struct Supervisor {
     name: &'static str,
     /// Runners built after the first (abandoned or panicked ones replaced).
     pub restarts: u64,
+    /// Whether the last attempt's runner was abandoned (it may still be writing into its
+    /// attempt directory).
+    pub abandoned_last: bool,
 }
 
 impl std::fmt::Debug for Supervisor {
@@ -83,7 +86,7 @@ impl Supervisor {
     pub fn new(factory: RunnerFactory) -> Result<Self, Error> {
         let runner = factory()?;
         let name = runner.name();
-        Ok(Self { factory, runner: Some(runner), name, restarts: 0 })
+        Ok(Self { factory, runner: Some(runner), name, restarts: 0, abandoned_last: false })
     }
 
     /// The runner's name.
@@ -107,6 +110,7 @@ impl Supervisor {
             }
         };
         let cancel = Cancel::new();
+        self.abandoned_last = false;
         let rx = spawn(runner, job, dir, &cancel)?;
         let reply = match rx.recv_timeout(timeout) {
             Ok(r) => Some(r),
@@ -128,6 +132,7 @@ impl Supervisor {
             }
         };
         let Some((runner, result)) = reply else {
+            self.abandoned_last = true;
             return Ok(engine_verdict(
                 TrialVerdict::Timeout,
                 format!(

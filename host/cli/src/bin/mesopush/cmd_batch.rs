@@ -4,10 +4,12 @@
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use mesopush_batch::integrity::Finding;
 use mesopush_batch::stats::{Loaded, Summary, summarize};
 use mesopush_batch::{BatchConfig, BatchProgress, Session, merge, report};
 use mesopush_core::shard::Shard;
 use serde_json::json;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Unattended trial batches: run, resume, shard, merge, report.
@@ -37,7 +39,7 @@ struct RunArgs {
     /// Run only trials with index ≡ I mod N, into OUT/shard-I-of-N (e.g. 3/16).
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
-    /// Stop after this many trials in this session (run again to continue).
+    /// Stop after this many trials in this session (≥ 1; run again to continue).
     #[arg(long)]
     max_trials: Option<u64>,
     /// Print one JSON summary instead of text.
@@ -62,7 +64,8 @@ struct MergeArgs {
     /// Shard (or batch) directories of the same batch.
     #[arg(required = true)]
     dirs: Vec<PathBuf>,
-    /// The merged batch directory (must not hold a batch yet).
+    /// The merged batch directory (new, or an earlier merge of the same batch: re-running a
+    /// merge completes it or finds it complete).
     #[arg(long)]
     out: PathBuf,
     /// Print the merged summary as JSON.
@@ -106,17 +109,63 @@ fn run_batch(a: &RunArgs) -> Result<()> {
     pb.finish_and_clear();
     let s = summarize(&Loaded::load(&out)?);
     print_run(&out, &s, &session, a.json);
-    if s.records_lost > 0 || s.duplicates > 0 {
+    if !session.found.is_empty() {
         return Err(crate::verdict::Negative(format!(
-            "data integrity: {} records lost, {} duplicated trials",
-            s.records_lost, s.duplicates
+            "data integrity: this resume found {} (set aside and run again; {})",
+            found_counts(&session.found),
+            s.integrity_line()
         ))
         .into());
+    }
+    integrity_verdict(&s)
+}
+
+/// `1 lost, 2 damaged` from a list of findings.
+fn found_counts(found: &[Finding]) -> String {
+    let mut n: BTreeMap<&str, usize> = BTreeMap::new();
+    for f in found {
+        *n.entry(f.problem.as_str()).or_default() += 1;
+    }
+    let parts: Vec<String> = n.iter().map(|(p, k)| format!("{k} {p}")).collect();
+    format!("{} final record(s) not good: {}", found.len(), parts.join(", "))
+}
+
+/// Exit 1 (a negative verdict) when any record is lost, damaged, duplicated or foreign.
+fn integrity_verdict(s: &Summary) -> Result<()> {
+    if s.has_integrity_problems() {
+        return Err(
+            crate::verdict::Negative(format!("data integrity: {}", s.integrity_line())).into()
+        );
     }
     Ok(())
 }
 
+fn print_findings(findings: &[Finding], head: &str) {
+    if findings.is_empty() {
+        return;
+    }
+    eprintln!("{head}");
+    for f in findings.iter().take(20) {
+        eprintln!(
+            "  {} {} (journal record {}, {}): {}",
+            f.trial_id,
+            f.problem.as_str(),
+            f.record,
+            f.dir,
+            f.detail
+        );
+    }
+    if findings.len() > 20 {
+        eprintln!("  … {} more (--json lists them all)", findings.len() - 20);
+    }
+}
+
 fn print_run(out: &Path, s: &Summary, session: &Session, json: bool) {
+    print_findings(
+        &session.found,
+        "final records found not good on resume (set aside, run again):",
+    );
+    print_findings(&s.findings, "final records that do not count:");
     let session_rate =
         if session.elapsed_s > 0.0 { session.ran as f64 / session.elapsed_s } else { 0.0 };
     if json {
@@ -124,6 +173,7 @@ fn print_run(out: &Path, s: &Summary, session: &Session, json: bool) {
         v["dir"] = json!(out);
         v["session"] = json!({"ran": session.ran, "resumed": session.resumed,
             "discarded": session.discarded, "restarts": session.restarts,
+            "found_on_resume": session.found,
             "torn_journal_line_saved_to": session.torn_saved_to,
             "elapsed_s": session.elapsed_s, "trials_per_s": session_rate});
         println!("{v}");
@@ -149,10 +199,14 @@ fn print_run(out: &Path, s: &Summary, session: &Session, json: bool) {
             s.timeouts,
             s.errors
         );
-        println!(
-            "faults injected {}, detected {}; records lost {}",
-            s.faults_injected, s.faults_detected, s.records_lost
-        );
+        println!("faults injected {}, detected {}", s.faults_injected, s.faults_detected);
+        println!("{}", s.integrity_line());
+        if !session.found.is_empty() {
+            println!(
+                "found on resume: {}; set aside (voided) and run again",
+                found_counts(&session.found)
+            );
+        }
         println!("this session: {:.1} s, {session_rate:.2} trials/s", session.elapsed_s);
         println!("report: mesopush batch report {}", out.display());
     }
@@ -169,16 +223,19 @@ fn run_report(a: &ReportArgs) -> Result<()> {
     } else {
         let s = &w.summary;
         println!(
-            "{} trials, success {:.1} % (95 % CI {:.1}–{:.1} %), records lost {}",
+            "{} of {} trials with a verified verdict ({} missing), success {:.1} % (95 % CI {:.1}–{:.1} %)",
             s.trials,
+            s.expected,
+            s.missing,
             100.0 * s.success_rate,
             100.0 * s.success_ci95[0],
             100.0 * s.success_ci95[1],
-            s.records_lost
         );
+        println!("{}", s.integrity_line());
         println!("report: {}", w.markdown.display());
     }
-    Ok(())
+    print_findings(&w.summary.findings, "final records that do not count:");
+    integrity_verdict(&w.summary)
 }
 
 fn run_merge(a: &MergeArgs) -> Result<()> {
@@ -187,17 +244,25 @@ fn run_merge(a: &MergeArgs) -> Result<()> {
     if a.json {
         let mut v = serde_json::to_value(&s)?;
         v["inputs"] = json!(m.inputs);
+        v["outcome"] = json!(m.outcome);
         println!("{v}");
     } else {
+        let what = match m.outcome {
+            merge::Outcome::Written => "merged",
+            merge::Outcome::AlreadyComplete => "already complete (identical; nothing written):",
+            merge::Outcome::Updated => "updated (inputs progressed since the last merge):",
+        };
         println!(
-            "merged {} directories: {} of {} trials ({} missing) into {}",
+            "{what} {} directories: {} of {} trials ({} missing) into {}",
             m.inputs,
             s.trials,
             s.expected,
             s.missing,
             a.out.display()
         );
+        println!("{}", s.integrity_line());
         println!("report: mesopush batch report {}", a.out.display());
     }
-    Ok(())
+    print_findings(&s.findings, "final records that do not count:");
+    integrity_verdict(&s)
 }
