@@ -197,7 +197,7 @@ impl BatchSpec {
     /// Checks every field; the error names it.
     pub fn validate(&self) -> Result<(), Error> {
         if self.trials == 0 || self.trials > MAX_TRIALS {
-            return Err(bad(format!("trials = {} must be in 1..={MAX_TRIALS}", self.trials)));
+            return Err(bad(format!("trials = {}: must be in 1..={MAX_TRIALS}", self.trials)));
         }
         if self.runner != "sim" && self.runner != "rig" {
             return Err(bad(format!("runner = {:?}: expected \"rig\" or \"sim\"", self.runner)));
@@ -205,31 +205,42 @@ impl BatchSpec {
         if self.plans.is_empty() {
             return Err(bad("plans must name at least one plan file"));
         }
+        let [px, py, pt] = self.world.perturbation;
         if !self.world.perturbation.iter().all(|v| v.is_finite() && *v >= 0.0) {
-            return Err(bad("world.perturbation must be three finite values ≥ 0"));
+            return Err(bad(format!(
+                "world.perturbation = [{px}, {py}, {pt}]: each must be finite and ≥ 0 (µm, µm, °)"
+            )));
         }
         let c = &self.camera;
-        if !(0.0..=1.0).contains(&c.frame_drop) || !(0.0..=1.0).contains(&c.frame_black) {
-            return Err(bad("camera.frame_drop and camera.frame_black must be in [0, 1]"));
+        for (name, p) in [("frame_drop", c.frame_drop), ("frame_black", c.frame_black)] {
+            if !(0.0..=1.0).contains(&p) {
+                return Err(bad(format!("camera.{name} = {p}: must be a probability in [0, 1]")));
+            }
         }
         if c.max_frames == 0 || c.max_frames > 1000 {
-            return Err(bad("camera.max_frames must be in 1..=1000"));
+            return Err(bad(format!("camera.max_frames = {}: must be in 1..=1000", c.max_frames)));
         }
-        if c.film_period_us.is_some_and(|p| !(1_000..=10_000_000).contains(&p)) {
-            return Err(bad(
-                "camera.film_period_us must be in 1000..=10000000 µs (1 kHz to 0.1 Hz)",
-            ));
+        if let Some(p) = c.film_period_us.filter(|p| !(1_000..=10_000_000).contains(p)) {
+            return Err(bad(format!(
+                "camera.film_period_us = {p}: must be in 1000..=10000000 µs (1 kHz to 0.1 Hz)"
+            )));
         }
         let p = &self.policy;
-        let budget = |v: f64| v.is_finite() && v > 0.0 && v <= 86_400.0;
-        if !budget(p.timeout_s) || !budget(p.grace_s) {
-            return Err(bad("policy.timeout_s and policy.grace_s must be in (0, 86400] s"));
+        for (name, v) in [("timeout_s", p.timeout_s), ("grace_s", p.grace_s)] {
+            if !(v.is_finite() && v > 0.0 && v <= 86_400.0) {
+                return Err(bad(format!("policy.{name} = {v}: must be in (0, 86400] s")));
+            }
         }
         if p.max_attempts == 0 || p.max_attempts > 100 {
-            return Err(bad("policy.max_attempts must be in 1..=100"));
+            return Err(bad(format!(
+                "policy.max_attempts = {}: must be in 1..=100",
+                p.max_attempts
+            )));
         }
         if p.retry_on.iter().any(|v| matches!(v, TrialVerdict::Inserted)) {
-            return Err(bad("policy.retry_on cannot hold `inserted`"));
+            return Err(bad(
+                "policy.retry_on = [.., \"inserted\", ..]: a success is never retried",
+            ));
         }
         Ok(())
     }
@@ -280,6 +291,34 @@ mod tests {
         let text = "seed = 1\ntrials = 3\nplans = [\"a.toml\"]\nbogus = 2\n";
         let e = toml::from_str::<BatchSpec>(text).unwrap_err().to_string();
         assert!(e.contains("bogus"), "{e}");
+    }
+
+    /// Every numeric field out of range is refused naming the field, the value and the range.
+    #[test]
+    fn out_of_range_fields_are_named_with_value_and_range() {
+        let base = "seed = 1\ntrials = 3\nplans = [\"a.toml\"]\n";
+        for (extra, needles) in [
+            ("", &["trials = 0", "1..=10000000"][..]),
+            ("[world]\nperturbation = [1.0, -2.0, 0.0]\n", &["world.perturbation", "-2", "≥ 0"]),
+            ("[camera]\nframe_drop = 1.5\n", &["camera.frame_drop = 1.5", "[0, 1]"]),
+            ("[camera]\nframe_black = -0.1\n", &["camera.frame_black = -0.1", "[0, 1]"]),
+            ("[camera]\nmax_frames = 0\n", &["camera.max_frames = 0", "1..=1000"]),
+            ("[camera]\nfilm_period_us = 5\n", &["camera.film_period_us = 5", "1000..="]),
+            ("[policy]\ntimeout_s = 0.0\n", &["policy.timeout_s = 0", "(0, 86400]"]),
+            ("[policy]\ngrace_s = inf\n", &["policy.grace_s = inf", "(0, 86400]"]),
+            ("[policy]\nmax_attempts = 0\n", &["policy.max_attempts = 0", "1..=100"]),
+        ] {
+            let text = if extra.is_empty() {
+                base.replace("trials = 3", "trials = 0")
+            } else {
+                format!("{base}{extra}")
+            };
+            let spec: BatchSpec = toml::from_str(&text).unwrap();
+            let e = spec.validate().unwrap_err().to_string();
+            for n in needles {
+                assert!(e.contains(n), "{extra:?}: {n:?} not in {e}");
+            }
+        }
     }
 
     #[test]
