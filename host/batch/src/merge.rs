@@ -147,30 +147,30 @@ fn rebase(b: &Loaded, rel: &Path) -> Vec<(u64, Record)> {
     out
 }
 
-/// Merges `dirs` into `out`. Idempotent: re-run after a kill at any point it completes the
-/// merge, or finds it complete and writes nothing ([`Outcome`]).
-pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, Error> {
-    if dirs.is_empty() {
-        return Err(Error::invalid("merge", "name at least one batch directory"));
-    }
-    let _lock = BatchLock::exclusive(out)?;
+/// The inputs, read under their shared locks.
+#[derive(Debug, Default)]
+struct Gathered {
+    manifest: Option<Manifest>,
+    by_index: BTreeMap<u64, Vec<Record>>,
+    owner: BTreeMap<u64, PathBuf>,
+    inputs: Vec<String>,
+    locks: Vec<Option<BatchLock>>,
+}
+
+fn gather(dirs: &[PathBuf], out: &Path) -> Result<Gathered, Error> {
     let canon_out = std::fs::canonicalize(out).map_err(|e| Error::io(out, e))?;
-    let mut input_locks = Vec::new();
-    let mut manifest: Option<Manifest> = None;
-    let mut by_index: BTreeMap<u64, Vec<Record>> = BTreeMap::new();
-    let mut owner: BTreeMap<u64, PathBuf> = BTreeMap::new();
-    let mut inputs = Vec::new();
+    let mut g = Gathered::default();
     for dir in dirs {
         if std::fs::canonicalize(dir).is_ok_and(|d| d == canon_out) {
             return Err(Error::invalid("merge", format!("--out {} is an input", out.display())));
         }
-        input_locks.push(BatchLock::shared(dir)?);
+        g.locks.push(BatchLock::shared(dir)?);
         let b = Loaded::load(dir)?;
         check_input(dir, &b)?;
         let mut m = b.manifest.clone();
         m.shard = Shard::ALL;
-        match &manifest {
-            None => manifest = Some(m),
+        match &g.manifest {
+            None => g.manifest = Some(m),
             Some(first) if *first != m => {
                 return Err(Error::invalid(
                     "merge",
@@ -180,36 +180,41 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, Error> {
             Some(_) => {}
         }
         let rel = relative(out, dir)?;
-        inputs.push(rel.to_string_lossy().into_owned());
+        g.inputs.push(rel.to_string_lossy().into_owned());
         for (index, r) in rebase(&b, &rel) {
             if let Record::Trial(a) = &r {
-                if let Some(prev) = owner.insert(index, dir.clone()) {
-                    return Err(Error::invalid(
-                        "merge",
-                        format!(
-                            "{} is finished in both {} and {}",
-                            a.trial_id,
-                            prev.display(),
-                            dir.display()
-                        ),
-                    ));
+                if let Some(prev) = g.owner.insert(index, dir.clone()) {
+                    let (p, d) = (prev.display(), dir.display());
+                    let msg = format!("{} is finished in both {p} and {d}", a.trial_id);
+                    return Err(Error::invalid("merge", msg));
                 }
             }
-            by_index.entry(index).or_default().push(r);
+            g.by_index.entry(index).or_default().push(r);
         }
     }
-    let manifest = manifest.expect("at least one input");
+    Ok(g)
+}
+
+/// Merges `dirs` into `out`. Idempotent: re-run after a kill at any point it completes the
+/// merge, or finds it complete and writes nothing ([`Outcome`]).
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, Error> {
+    if dirs.is_empty() {
+        return Err(Error::invalid("merge", "name at least one batch directory"));
+    }
+    let _lock = BatchLock::exclusive(out)?;
+    let g = gather(dirs, out)?;
+    let manifest = g.manifest.expect("at least one input");
     let previous = previous_output(out, &manifest)?;
     let mut journal = String::new();
-    for r in by_index.values().flatten() {
+    for r in g.by_index.values().flatten() {
         journal.push_str(&serde_json::to_string(r).expect("records serialise"));
         journal.push('\n');
     }
-    let merged = |outcome| Merged { inputs: dirs.len(), trials: owner.len(), outcome };
+    let merged = |outcome| Merged { inputs: dirs.len(), trials: g.owner.len(), outcome };
     if previous == journal.as_bytes() && out.join(MANIFEST).exists() {
         return Ok(merged(Outcome::AlreadyComplete));
     }
-    let marker = Marker { format: "mesopush-batch-merge".into(), inputs };
+    let marker = Marker { format: "mesopush-batch-merge".into(), inputs: g.inputs.clone() };
     let text = serde_json::to_string_pretty(&marker).expect("marker serialises");
     write_atomic(&out.join(MARKER), text.as_bytes())?;
     let text = serde_json::to_string_pretty(&manifest).expect("manifest serialises");

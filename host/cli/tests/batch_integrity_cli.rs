@@ -153,13 +153,16 @@ fn report(out: &Path) -> Output {
     mesopush(&["batch", "report", "--json", out.to_str().unwrap()])
 }
 
+/// Damages a batch directory.
+type Harm<'a> = &'a dyn Fn(&Path);
+
 #[test]
 fn lost_damaged_duplicated_and_foreign_records_exit_1_until_a_resume_reruns_them() {
     let tmp = tempfile::tempdir().unwrap();
     let batch = write_batch(tmp.path(), 4);
     let reference = tmp.path().join("reference");
     assert!(run(&batch, &reference).status.success());
-    let harms: [(&str, &dyn Fn(&Path)); 4] = [
+    let harms: [(&str, Harm); 4] = [
         ("lost", &|out| std::fs::remove_dir_all(final_dir(out, 1)).unwrap()),
         ("damaged", &|out| {
             let pose = final_dir(out, 2).join("pose.csv");
