@@ -3,9 +3,13 @@
 //! moment and running the same command again continues where it stopped — no trial lost,
 //! none duplicated, a half-written attempt set aside (renamed) and run again.
 //!
-//! Batch directory: `batch.json` (the manifest: spec, plans, shard; a re-run with a
+//! Batch directory: `batch.lock` (held for the whole run: a second process is refused,
+//! [`crate::lock`]), `batch.json` (the manifest: spec, plans, shard; a re-run with a
 //! different batch is refused), `journal.jsonl`, `trials/trial-000007-a1/` (trial logs in
-//! the `host::trial` format, one per attempt).
+//! the `host::trial` format, one per attempt). A resume first verifies every final record
+//! against its directory's checksum ([`crate::integrity`]), voids the ones that do not
+//! count and runs their trials again, then sets aside what the interrupted run left
+//! ([`crate::leftovers`]).
 
 use super::check;
 use super::digest::{self, DirChecksum};

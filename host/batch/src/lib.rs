@@ -2,8 +2,10 @@
 //! by a [`TrialRunner`] under a journal that survives being killed at any moment, with
 //! per-trial timeouts, retries, sharding by trial index into independent processes, a merge
 //! of shard outputs, and a report (success rate with its 95 % interval, failure reasons,
-//! timing, figures). The engine knows trials only through the runner trait. See
-//! `docs/batch.md`.
+//! timing, figures). The engine knows trials only through the runner trait. One process
+//! per batch directory (a kernel lock); every final record carries its trial directory's
+//! checksum, and every reader verifies it and counts lost, damaged, duplicated and foreign
+//! records. See `docs/batch.md`.
 //!
 //! May depend on: `mesopush-core`, `mesopush-sim`, `mesopush-vision`, `mesopush-trial`,
 //! `mesopush-plot`, `mesopush-plan` and `mesopush-rig` (its runners drive the simulator or the
