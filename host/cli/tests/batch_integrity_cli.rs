@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-const TRIALS: u64 = 200;
+const TRIALS: u64 = 120; // the batch size
 
 fn mesopush(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_mesopush")).args(args).output().expect("mesopush runs")
