@@ -134,7 +134,9 @@ impl Fixture {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let fixture: Fixture = toml::from_str(&text)
             .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
-        fixture.validate()?;
+        fixture
+            .validate()
+            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
         Ok(fixture)
     }
 

@@ -156,7 +156,7 @@ impl Model {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let model: Model = toml::from_str(&text)
             .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
-        model.validate()?;
+        model.validate().map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
         Ok(model)
     }
 

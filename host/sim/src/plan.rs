@@ -105,7 +105,7 @@ impl Plan {
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, Error> {
         let plan: Plan = toml::from_str(text)
             .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
-        plan.validate()?;
+        plan.validate().map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
         Ok(plan)
     }
 

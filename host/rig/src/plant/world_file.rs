@@ -206,15 +206,10 @@ impl WorldFile {
             }
             (None, None) => Model::default(),
         };
-        let model = with_physical_effects(model, &spec.effects)?;
-        model.validate()?;
-        validated_faults(&spec.faults)?;
-        let (c, fx) = (&spec.camera, &spec.effects);
-        check_camera(c.period_us, c.readout_us, c.size_px, fx.camera_latency_us)?;
-        check_optics(c.um_per_px, c.origin_px)?;
-        spec.camera.calibration()?;
-        check_stage_offset(spec.stage.offset_um)?;
-        check_peg(spec.peg.start.as_ref(), spec.peg.perturb)?;
+        let in_file = |e: Error| Error::Parse { path: name.clone(), message: e.to_string() };
+        let model = with_physical_effects(model, &spec.effects).map_err(in_file)?;
+        model.validate().map_err(|e| in_file(e.into()))?;
+        check_values(&spec).map_err(in_file)?;
         Ok(Self { spec, model, text: text.to_string(), path: path.map(Path::to_path_buf) })
     }
 
@@ -256,6 +251,17 @@ impl WorldFile {
             "camera_period_us": self.spec.camera.period_us,
         })
     }
+}
+
+/// Every value of the world's own tables within its range ([`super::world_check`]).
+fn check_values(spec: &WorldSpec) -> Result<(), Error> {
+    validated_faults(&spec.faults)?;
+    let (c, fx) = (&spec.camera, &spec.effects);
+    check_camera(c.period_us, c.readout_us, c.size_px, fx.camera_latency_us)?;
+    check_optics(c.um_per_px, c.origin_px)?;
+    spec.camera.calibration()?;
+    check_stage_offset(spec.stage.offset_um)?;
+    check_peg(spec.peg.start.as_ref(), spec.peg.perturb)
 }
 
 /// The world's model with the physical part of `effects` (compliance, adhesion, friction

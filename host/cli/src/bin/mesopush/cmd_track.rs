@@ -2,6 +2,7 @@
 //! against a background frame, and writes pose.csv (and optionally overlays and a JSON
 //! summary). See `mesopush_vision::folder` for what is read from frames.csv.
 
+use mesopush_core::check::Allowed;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -43,7 +44,7 @@ pub(crate) struct TrackArgs {
     #[arg(long, value_name = "L,W", default_value = "1615,985")]
     peg_um: String,
     /// Orientation the first frame is taken to be near, rad (the ellipse gives θ modulo π).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = crate::ranges::real(Allowed::closed(-10.0, 10.0, "rad")))]
     theta0_rad: f64,
     /// Also write each frame with the detected outline and tip drawn on it to this folder.
     #[arg(long)]
