@@ -50,14 +50,14 @@ impl std::fmt::Display for Allowed {
         match (self.lo, self.hi) {
             (None, None) => write!(f, "a finite number{unit}"),
             (Some((lo, incl)), None) => {
-                write!(f, "a finite number {} {lo}{unit}", if incl { "≥" } else { ">" })
+                write!(f, "a finite number {} {}{unit}", if incl { "≥" } else { ">" }, show(lo))
             }
             (None, Some((hi, incl))) => {
-                write!(f, "a finite number {} {hi}{unit}", if incl { "≤" } else { "<" })
+                write!(f, "a finite number {} {}{unit}", if incl { "≤" } else { "<" }, show(hi))
             }
             (Some((lo, li)), Some((hi, hi_incl))) => {
                 let (a, b) = (if li { '[' } else { '(' }, if hi_incl { ']' } else { ')' });
-                write!(f, "{a}{lo}, {hi}{b}{unit}")
+                write!(f, "{a}{}, {}{b}{unit}", show(lo), show(hi))
             }
         }
     }
@@ -65,7 +65,22 @@ impl std::fmt::Display for Allowed {
 
 /// `value` if it is finite and `allowed` holds it, else [`Error::Invalid`] naming `field`.
 pub fn finite_in(field: &str, value: f64, allowed: Allowed) -> Result<f64, Error> {
-    if allowed.contains(value) { Ok(value) } else { Err(Error::invalid(field, value, allowed)) }
+    if allowed.contains(value) {
+        Ok(value)
+    } else {
+        Err(Error::invalid(field, show(value), allowed))
+    }
+}
+
+/// A number as a message shows it: plain, or in exponent form when very large or small
+/// (`1e300`, not three hundred digits).
+pub fn show(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && (a >= 1e7 || (a < 1e-4 && a > 0.0)) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
 }
 
 /// Every component of `values` checked by [`finite_in`], named `field[i]`.
@@ -100,6 +115,8 @@ mod tests {
         assert!(e.contains("x = inf") && e.contains("a finite number µm"), "{e}");
         let e = all_finite_in("offset_um", &[1.0, -1.0], Allowed::closed(0.0, 5.0, "µm"));
         assert!(e.unwrap_err().to_string().contains("offset_um[1] = -1"));
+        let e = finite_in("y", 1e300, Allowed::closed(0.0, 1.0, "")).unwrap_err().to_string();
+        assert_eq!(e, "invalid y = 1e300: allowed [0, 1]");
         let e = int_in("population", 0usize, 2, 10_000, "").unwrap_err().to_string();
         assert_eq!(e, "invalid population = 0: allowed 2..=10000");
     }

@@ -61,8 +61,9 @@ impl Default for PaperFixtureParams {
 
 /// Most walls a fixture may have.
 pub const MAX_WALLS: usize = 256;
-/// Where fixture vertices may lie, µm (±1 m about the origin).
-pub const COORDINATE_UM: Allowed = Allowed::closed(-1e6, 1e6, "µm");
+/// Where fixture vertices may lie, µm (±1 km about the origin: far beyond any fixture, yet
+/// clear of the magnitudes whose squares overflow).
+pub const COORDINATE_UM: Allowed = Allowed::closed(-1e9, 1e9, "µm");
 
 /// How far the walls run beyond the camera field, µm (the narrow channel continues to the
 /// left out of view).

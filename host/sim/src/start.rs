@@ -86,7 +86,7 @@ mod tests {
             .unwrap();
         let far = Pose::new(1e9, 1e9, 0.0);
         let e = check_start(&mut s, "--start", far, None).unwrap_err().to_string();
-        assert!(e.contains("--start x_um = 1000000000") && e.contains("[-3000, 6370]"), "{e}");
+        assert!(e.contains("--start x_um = 1e9") && e.contains("[-3000, 6370]"), "{e}");
         // 300 µm into the wide channel's lower wall (its upper edge at y = 2315).
         let sunk = Pose::new(2330.0, 2315.0 + 300.0 - 492.5, 0.0);
         let e = check_start(&mut s, "plan peg_start", sunk, None).unwrap_err().to_string();
