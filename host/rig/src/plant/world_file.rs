@@ -195,9 +195,13 @@ impl WorldFile {
         let name = path.map_or_else(|| PathBuf::from("<world>"), Path::to_path_buf);
         let spec: WorldSpec = toml::from_str(text)
             .map_err(|e| Error::Parse { path: name.clone(), message: e.to_string() })?;
+        let in_file = |e: Error| Error::Parse { path: name.clone(), message: e.to_string() };
         let model = match (&spec.model.inline, &spec.model.path) {
             (Some(_), Some(_)) => {
-                return Err(Error::invalid("world model", "give either `inline` or `path`"));
+                return Err(in_file(Error::invalid(
+                    "world model",
+                    "give either `inline` or `path`",
+                )));
             }
             (Some(m), None) => m.clone(),
             (None, Some(p)) => {
@@ -206,7 +210,6 @@ impl WorldFile {
             }
             (None, None) => Model::default(),
         };
-        let in_file = |e: Error| Error::Parse { path: name.clone(), message: e.to_string() };
         let model = with_physical_effects(model, &spec.effects).map_err(in_file)?;
         model.validate().map_err(|e| in_file(e.into()))?;
         check_values(&spec).map_err(in_file)?;

@@ -68,11 +68,13 @@ pub(crate) fn run(a: &ReplayArgs) -> Result<()> {
     if let Some(e) = fig_errors.first() {
         anyhow::bail!("{} figure(s) could not be drawn, first: {e}", fig_errors.len());
     }
-    if !report.failures.is_empty() {
+    if let Some(first) = report.failures.first() {
         anyhow::bail!(
-            "{} of {} trials could not be replayed (listed above)",
+            "{} of {} trials could not be replayed (all listed above), first: {}: {}",
             report.failures.len(),
-            dirs.len()
+            dirs.len(),
+            first.trial,
+            first.reason
         );
     }
     Ok(())

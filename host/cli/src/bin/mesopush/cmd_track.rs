@@ -79,6 +79,9 @@ fn settings(args: &TrackArgs, width: u32, height: u32) -> anyhow::Result<TrackSe
         Calibration::from_field(fw, fh, width, height)?.with_origin(Vec2::new(ox, oy))?
     };
     let (l, w) = pair("--peg-um", &args.peg_um)?;
+    if !(l > 0.0 && w > 0.0 && l <= 1e5 && w <= 1e5) {
+        bail!("invalid --peg-um = {l},{w}: allowed: both in (0, 100000] µm");
+    }
     let peg = ConvexPolygon::rectangle(l, w).with_context(|| format!("--peg-um {l},{w}"))?;
     let threshold = match args.threshold {
         Some(t) if !(t > 0.0 && t < 1.0) => bail!("--threshold must be in (0, 1), got {t}"),
