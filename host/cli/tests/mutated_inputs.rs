@@ -1,6 +1,6 @@
 //! Property test over every loader (issue 19): valid files — a plan, a model, a fixture, a
 //! world, a trial's trial.json / probe.csv / pose.csv, an LCP file, PNG frames, a Zhou-Mason
-//! run file — are mutated from fixed seeds (numbers replaced by NaN, ±inf, ±1e300, −1 or 0,
+//! run file — are mutated from fixed seeds, and random bytes are given to each loader (numbers replaced by NaN, ±inf, ±1e300, −1 or 0,
 //! lines dropped, duplicated or swapped, files truncated, bytes flipped) and fed to the real
 //! binary; whatever the mutation, it must end with exit code 0, 1 or 2 — never a panic
 //! (exit code 101), a signal or a hang. The seeds are fixed, so every run tries the same
@@ -95,10 +95,22 @@ fn mutate_text(text: &str, rng: &mut impl Rng) -> (String, String) {
     (t, what.join(", "))
 }
 
-/// Bytes truncated, flipped or the PNG header's size overwritten.
+/// A PNG of `img` (encoding a valid image cannot fail).
+fn png(img: image::DynamicImage) -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).expect("encode png");
+    out.into_inner()
+}
+
+/// A PNG truncated, bit-flipped or its header's size overwritten (all caught by the
+/// decoder), or re-encoded as a valid PNG the tracker must cope with: another size (down to
+/// 1 × 1 px), one flat grey level, random noise, colour or 16-bit samples.
 fn mutate_bytes(bytes: &[u8], rng: &mut impl Rng) -> (Vec<u8>, String) {
+    use image::{DynamicImage, GrayImage, Luma};
     let mut b = bytes.to_vec();
-    match rng.random_range(0..3) {
+    let orig = image::load_from_memory(bytes).expect("the corpus PNG decodes");
+    let (w, h) = (orig.width(), orig.height());
+    match rng.random_range(0..7) {
         0 => {
             let cut = rng.random_range(0..b.len());
             b.truncate(cut);
@@ -112,14 +124,25 @@ fn mutate_bytes(bytes: &[u8], rng: &mut impl Rng) -> (Vec<u8>, String) {
             }
             (b, format!("{n} bits flipped"))
         }
-        _ => {
+        2 => {
             let (w, h) = (rng.random_range(0..u32::MAX), rng.random_range(0..u32::MAX));
-            if b.len() >= 24 {
-                b[16..20].copy_from_slice(&w.to_be_bytes());
-                b[20..24].copy_from_slice(&h.to_be_bytes());
-            }
+            b[16..20].copy_from_slice(&w.to_be_bytes());
+            b[20..24].copy_from_slice(&h.to_be_bytes());
             (b, format!("header size set to {w} x {h}"))
         }
+        3 => {
+            let (w, h) = (rng.random_range(1..=200), rng.random_range(1..=200));
+            let seed: u8 = rng.random();
+            let img = GrayImage::from_fn(w, h, |x, y| Luma([(x * 7 + y * 13) as u8 ^ seed]));
+            (png(DynamicImage::ImageLuma8(img)), format!("re-encoded as {w} x {h} px of noise"))
+        }
+        4 => {
+            let v: u8 = [0, 255, rng.random()][rng.random_range(0..3)];
+            let img = GrayImage::from_pixel(w, h, Luma([v]));
+            (png(DynamicImage::ImageLuma8(img)), format!("re-encoded flat at grey {v}"))
+        }
+        5 => (png(DynamicImage::ImageRgb8(orig.to_rgb8())), "re-encoded as RGB".into()),
+        _ => (png(DynamicImage::ImageLuma16(orig.to_luma16())), "re-encoded as 16-bit".into()),
     }
 }
 
@@ -166,7 +189,7 @@ fn copy_dir(from: &Path, to: &Path) {
 const KINDS: &[Kind] = &[
     Kind {
         name: "plan (sim)",
-        count: 30,
+        count: 60,
         make: |c, d, r| {
             let (f, w) = text_file(c, "plans/valid.toml", d, "plan.toml", r);
             (vec!["sim".into(), "--plan".into(), s(f), "--out".into(), s(d.join("out"))], w)
@@ -174,7 +197,7 @@ const KINDS: &[Kind] = &[
     },
     Kind {
         name: "model (sim)",
-        count: 25,
+        count: 50,
         make: |c, d, r| {
             let (f, w) = text_file(c, "models/valid.toml", d, "model.toml", r);
             let plan = s(c.join("plans/short.toml"));
@@ -194,7 +217,7 @@ const KINDS: &[Kind] = &[
     },
     Kind {
         name: "fixture (sim)",
-        count: 20,
+        count: 40,
         make: |c, d, r| {
             let (f, w) = text_file(c, "fixtures/valid.toml", d, "fixture.toml", r);
             let plan = s(c.join("plans/short.toml"));
@@ -214,7 +237,7 @@ const KINDS: &[Kind] = &[
     },
     Kind {
         name: "world (demo)",
-        count: 10,
+        count: 30,
         make: |c, d, r| {
             let (f, w) = text_file(c, "worlds/valid.toml", d, "world.toml", r);
             let plan = s(c.join("plans/short.toml"));
@@ -235,7 +258,7 @@ const KINDS: &[Kind] = &[
     },
     Kind {
         name: "trial files (replay)",
-        count: 30,
+        count: 60,
         make: |c, d, r| {
             let trial = d.join("trial");
             copy_dir(&c.join("trials/valid/synth-00"), &trial);
@@ -258,7 +281,7 @@ const KINDS: &[Kind] = &[
     },
     Kind {
         name: "LCP file (lcp solve)",
-        count: 25,
+        count: 50,
         make: |c, d, r| {
             let (f, w) = text_file(c, "lcp/valid.dat", d, "p.dat", r);
             (vec!["lcp".into(), "solve".into(), s(f)], w)
@@ -266,7 +289,7 @@ const KINDS: &[Kind] = &[
     },
     Kind {
         name: "PNG frame or background (track)",
-        count: 20,
+        count: 40,
         make: |c, d, r| {
             let frames = d.join("frames");
             copy_dir(&c.join("images/valid/frames"), &frames);
@@ -292,7 +315,7 @@ const KINDS: &[Kind] = &[
     },
     Kind {
         name: "Zhou-Mason run file (import)",
-        count: 20,
+        count: 40,
         make: |c, d, r| {
             let rel = "tri/tri_0_0_90/log2017-05-23_20-25-09.txt";
             let dir = d.join("data/tri/tri_0_0_90");
@@ -311,6 +334,39 @@ const KINDS: &[Kind] = &[
             )
         },
     },
+    Kind {
+        name: "random bytes (every loader)",
+        count: 40,
+        make: |c, d, r| {
+            let n = r.random_range(0..2000);
+            let text = r.random_bool(0.5);
+            let bytes: Vec<u8> = (0..n)
+                .map(|_| {
+                    if text {
+                        let alphabet = b" \n,.=[]-+e0123456789nainf";
+                        alphabet[r.random_range(0..alphabet.len())]
+                    } else {
+                        r.random()
+                    }
+                })
+                .collect();
+            let f = d.join("input");
+            std::fs::write(&f, &bytes).expect("write");
+            let (plan, out) = (s(c.join("plans/short.toml")), s(d.join("out")));
+            let frames = s(c.join("images/valid/frames"));
+            let (f, what) =
+                (s(&f), format!("{n} random {}", if text { "characters" } else { "bytes" }));
+            let args: Vec<&str> = match r.random_range(0..6) {
+                0 => vec!["sim", "--plan", &f, "--out", &out],
+                1 => vec!["sim", "--plan", &plan, "--model", &f, "--out", &out],
+                2 => vec!["sim", "--plan", &plan, "--fixture", &f, "--out", &out],
+                3 => vec!["demo", "--plan", &plan, "--world", &f, "--out", &out],
+                4 => vec!["lcp", "solve", &f],
+                _ => vec!["track", &frames, "--background", &f, "--out", &out],
+            };
+            (args.into_iter().map(String::from).collect(), what)
+        },
+    },
 ];
 
 #[test]
@@ -321,9 +377,9 @@ fn mutated_valid_inputs_never_panic() {
         .enumerate()
         .flat_map(|(k, kind)| (0..kind.count).map(move |i| (k, i)))
         .collect();
-    let failures: Vec<String> = runs
+    let ends: Vec<(usize, Option<i32>, Option<String>)> = runs
         .par_iter()
-        .filter_map(|&(k, i)| {
+        .map(|&(k, i)| {
             let kind = &KINDS[k];
             let seed = 1000 * k as u64 + i;
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -331,22 +387,30 @@ fn mutated_valid_inputs_never_panic() {
             let (args, what) = (kind.make)(&c, tmp.path(), &mut rng);
             let ended = common::run(&common::binary("mesopush"), &args, tmp.path(), LIMIT);
             let ok = !ended.panicked() && !ended.timed_out && matches!(ended.code, Some(0..=2));
-            (!ok).then(|| {
+            let failure = (!ok).then(|| {
                 let tail: String =
                     ended.stderr.lines().rev().take(6).collect::<Vec<_>>().join(" | ");
                 format!(
                     "{} seed {seed} ({what}): exit {:?}, timed out {}: {tail}",
                     kind.name, ended.code, ended.timed_out
                 )
-            })
+            });
+            (k, ended.code, failure)
         })
         .collect();
+    for (k, kind) in KINDS.iter().enumerate() {
+        let code = |c| ends.iter().filter(|e| e.0 == k && e.1 == Some(c)).count();
+        eprintln!("{:<34} exit 0: {:>3}, 1: {:>3}, 2: {:>3}", kind.name, code(0), code(1), code(2));
+        // The mutations reach the checks: some of each kind are refused as invalid input.
+        assert!(code(2) > 0, "no mutated {} was refused", kind.name);
+    }
+    let failures: Vec<&String> = ends.iter().filter_map(|e| e.2.as_ref()).collect();
     assert!(
         failures.is_empty(),
         "{} of {} mutated inputs failed:\n{}",
         failures.len(),
         runs.len(),
-        failures.join("\n")
+        failures.iter().map(|f| f.as_str()).collect::<Vec<_>>().join("\n")
     );
 }
 

@@ -9,31 +9,31 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The corpus directory (`host/cli/tests/malformed`).
-pub fn corpus() -> PathBuf {
+pub(crate) fn corpus() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/malformed")
 }
 
 /// How a run ended.
 #[derive(Debug)]
-pub struct Ended {
+pub(crate) struct Ended {
     /// The exit code (`None`: killed by a signal, or by us at the time limit).
-    pub code: Option<i32>,
+    pub(crate) code: Option<i32>,
     /// Whether we killed it at the time limit.
-    pub timed_out: bool,
+    pub(crate) timed_out: bool,
     /// Its standard error.
-    pub stderr: String,
+    pub(crate) stderr: String,
 }
 
 impl Ended {
     /// Whether the run panicked (Rust's panic message, or exit code 101).
-    pub fn panicked(&self) -> bool {
+    pub(crate) fn panicked(&self) -> bool {
         self.stderr.contains("panicked at") || self.code == Some(101)
     }
 }
 
 /// Runs `bin` with `args` in `dir` (its working directory, where stdout and stderr go),
 /// killing it after `limit`.
-pub fn run(bin: &Path, args: &[String], dir: &Path, limit: Duration) -> Ended {
+pub(crate) fn run(bin: &Path, args: &[String], dir: &Path, limit: Duration) -> Ended {
     let (out, err) = (dir.join("stdout.txt"), dir.join("stderr.txt"));
     let mut child = Command::new(bin)
         .args(args)
@@ -61,7 +61,7 @@ pub fn run(bin: &Path, args: &[String], dir: &Path, limit: Duration) -> Ended {
 }
 
 /// The binary called `name` of this package.
-pub fn binary(name: &str) -> PathBuf {
+pub(crate) fn binary(name: &str) -> PathBuf {
     match name {
         "mesopush" => PathBuf::from(env!("CARGO_BIN_EXE_mesopush")),
         "mesopush-fwsim" => PathBuf::from(env!("CARGO_BIN_EXE_mesopush-fwsim")),
