@@ -91,7 +91,7 @@ impl Plan {
                     format!("{field} = ({dx}, {dy}) µm must be along x or y only"),
                 ));
             }
-            at = at + Vec2::new(*dx, *dy);
+            at += Vec2::new(*dx, *dy);
             all_finite_in(
                 &format!("probe position after move {}", i + 1),
                 &[at.x, at.y],

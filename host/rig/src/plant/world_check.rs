@@ -85,7 +85,7 @@ pub fn check_plan_on_stage(plan: &Plan, offset_um: [f64; 2]) -> Result<(), Error
     let waypoints = std::iter::once(Vec2::new(0.0, 0.0))
         .chain(plan.moves_um.iter().map(|&[x, y]| Vec2::new(x, y)));
     for (i, d) in waypoints.enumerate() {
-        at = at + d;
+        at += d;
         let s = at + offset;
         let name = if i == 0 {
             "plan probe start".to_string()
