@@ -37,11 +37,6 @@ pub(crate) fn mu() -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync
     real(Allowed::closed(0.0, 2.0, ""))
 }
 
-/// A share or probability: [0, 1].
-pub(crate) fn share() -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
-    real(Allowed::closed(0.0, 1.0, ""))
-}
-
 /// A non-negative length, µm, at most `hi`.
 pub(crate) fn length_um(
     hi: f64,

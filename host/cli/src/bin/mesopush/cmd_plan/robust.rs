@@ -42,8 +42,10 @@ pub(super) struct RobustArgs {
     /// validation worlds).
     #[arg(long, default_value_t = RobustSettings::default().rounds, value_parser = crate::ranges::at_least_one())]
     rounds: usize,
-    /// Validation success rate that ends the search after a round.
-    #[arg(long, default_value_t = RobustSettings::default().accept_rate, value_parser = crate::ranges::share())]
+    /// Validation success rate that ends the search after a round (above 1: never reached,
+    /// every round runs).
+    #[arg(long, default_value_t = RobustSettings::default().accept_rate,
+          value_parser = crate::ranges::real(Allowed::closed(0.0, 2.0, "")))]
     accept_rate: f64,
     /// Start the search at the shipped design (plans/robust.toml's parameters) instead of
     /// Table II's numbers with the press on the rotated peg's right end. It then refines that
