@@ -1,5 +1,5 @@
-//! The core crate's error: files that cannot be read, written or parsed, and shard sets that
-//! do not make a whole run.
+//! The core crate's error: files that cannot be read, written or parsed, values outside what
+//! their field allows, and shard sets that do not make a whole run.
 
 use std::path::PathBuf;
 
@@ -23,6 +23,16 @@ pub enum Error {
         /// What is wrong, with a line or field when known.
         message: String,
     },
+    /// An input value is outside what its field allows ([`crate::check`]).
+    #[error("invalid {field} = {value}: allowed {allowed}")]
+    Invalid {
+        /// The field (file key, option name), with an index where it has one.
+        field: String,
+        /// The value given.
+        value: String,
+        /// What is allowed (a range with its unit).
+        allowed: String,
+    },
     /// A shard specification is not `I/N` with 0 ≤ I < N.
     #[error("invalid shard {text:?}: expected I/N with 0 ≤ I < N (e.g. 0/4)")]
     ShardSpec {
@@ -43,6 +53,15 @@ impl Error {
     /// Shorthand for [`Error::Io`].
     pub fn io(path: impl Into<PathBuf>, cause: std::io::Error) -> Self {
         Error::Io { path: path.into(), cause }
+    }
+
+    /// Shorthand for [`Error::Invalid`].
+    pub fn invalid(field: &str, value: impl ToString, allowed: impl ToString) -> Self {
+        Error::Invalid {
+            field: field.to_string(),
+            value: value.to_string(),
+            allowed: allowed.to_string(),
+        }
     }
 
     /// Shorthand for [`Error::Parse`].

@@ -1,4 +1,5 @@
-//! mesopush core: the vocabulary every host crate shares — plane geometry ([`geom`]), the
+//! mesopush core: the vocabulary every host crate shares — plane geometry ([`geom`]), input
+//! checks that name field, value and range ([`check`]), the
 //! statistics the reports quote ([`stats`]), files written atomically ([`fsx`]) and the one
 //! shape of a run split into shards ([`shard`]).
 //!
@@ -9,6 +10,7 @@
 //! May depend on: `mesopush-fsx` (the one atomic file write, shared with the executor) and
 //! nothing else of mesopush. Every other host crate depends on it.
 
+pub mod check;
 pub mod error;
 pub mod fsx;
 pub mod geom;

@@ -5,6 +5,7 @@
 //! y down); `docs/fixture.md` documents the reconstruction with a dimensioned figure.
 
 use crate::Error;
+use mesopush_core::check::{Allowed, all_finite_in, finite_in, int_in};
 use mesopush_core::geom::{ConvexPolygon, Vec2};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -57,6 +58,12 @@ impl Default for PaperFixtureParams {
         Self { x_step_um: 525.0, wide_top_um: 300.0, narrow_top_um: 950.0, chamfer_um: 225.0 }
     }
 }
+
+/// Most walls a fixture may have.
+pub const MAX_WALLS: usize = 256;
+/// Where fixture vertices may lie, µm (±1 km about the origin: far beyond any fixture, yet
+/// clear of the magnitudes whose squares overflow).
+pub const COORDINATE_UM: Allowed = Allowed::closed(-1e9, 1e9, "µm");
 
 /// How far the walls run beyond the camera field, µm (the narrow channel continues to the
 /// left out of view).
@@ -122,11 +129,32 @@ impl Fixture {
         Ok(Fixture { walls, goal, insert_depth_um: default_depth() })
     }
 
-    /// Loads a fixture TOML (`walls = [[[x, y], ...], ...]`, `goal = [[x, y], ...]`).
+    /// Loads and validates a fixture TOML (`walls = [[[x, y], ...], ...]`,
+    /// `goal = [[x, y], ...]`).
     pub fn load(path: &Path) -> Result<Self, Error> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        toml::from_str(&text)
-            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })
+        let fixture: Fixture = toml::from_str(&text)
+            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
+        fixture
+            .validate()
+            .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
+        Ok(fixture)
+    }
+
+    /// Checks every field, naming the field, the value and the allowed range: at most
+    /// [`MAX_WALLS`] walls, every vertex within [`COORDINATE_UM`], `insert_depth_um` in
+    /// [0, 10 000] µm. (Each polygon is already convex and finite by construction.)
+    pub fn validate(&self) -> Result<(), Error> {
+        int_in("fixture walls (number of walls)", self.walls.len(), 0, MAX_WALLS, "")?;
+        let polygons = self.walls.iter().enumerate().map(|(i, w)| (format!("walls[{i}]"), w));
+        for (name, poly) in polygons.chain(std::iter::once(("goal".to_string(), &self.goal))) {
+            for (k, v) in poly.vertices().iter().enumerate() {
+                all_finite_in(&format!("fixture {name} vertex {k}"), &[v.x, v.y], COORDINATE_UM)?;
+            }
+        }
+        let depth = Allowed::closed(0.0, 10_000.0, "µm");
+        finite_in("fixture insert_depth_um", self.insert_depth_um, depth)?;
+        Ok(())
     }
 
     /// Whether a peg whose centre of mass is at `com` counts as inserted.

@@ -28,6 +28,7 @@ pub use support::SupportDistribution;
 pub mod path;
 pub mod plan;
 pub mod replay;
+pub mod start;
 pub mod stepper;
 pub mod trajectory;
 

@@ -6,6 +6,7 @@ use super::support::SupportDistribution;
 use crate::Error;
 use crate::effects::Effects;
 use crate::pusher::Pusher;
+use mesopush_core::check::{Allowed, all_finite_in, finite_in};
 use mesopush_core::geom::{ConvexPolygon, Vec2};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -133,6 +134,11 @@ impl Model {
                 format!("probe_radius_um = {r} must be finite and ≥ 0"),
             ));
         }
+        for (k, v) in self.part.polygon().vertices().iter().enumerate() {
+            let field = format!("model part vertex {k} (about the COM)");
+            all_finite_in(&field, &[v.x, v.y], Allowed::closed(-1e5, 1e5, "µm"))?;
+        }
+        finite_in("model probe_radius_um", r, Allowed::closed(0.0, 1e4, "µm"))?;
         if let Some(p) = &self.pusher {
             p.validate()?;
         }
@@ -150,7 +156,7 @@ impl Model {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         let model: Model = toml::from_str(&text)
             .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
-        model.validate()?;
+        model.validate().map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
         Ok(model)
     }
 

@@ -2,6 +2,7 @@
 //! speed (the paper's Table II). Plans are TOML; `plans/table2.toml` ships Table II.
 
 use crate::Error;
+use mesopush_core::check::{Allowed, all_finite_in, finite_in, int_in};
 use mesopush_core::geom::{Pose, Vec2};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -41,7 +42,12 @@ fn default_speed() -> f64 {
 }
 
 /// Largest accepted single move, µm (a 20 mm stage).
-const MAX_MOVE_UM: f64 = 20_000.0;
+pub const MAX_MOVE_UM: f64 = 20_000.0;
+/// Largest accepted probe speed, µm/s.
+pub const MAX_SPEED_UM_S: f64 = 10_000.0;
+/// Where a plan's positions may lie in the fixture frame, µm: ±20 mm about the fixture's
+/// origin (what a 20 mm stage can reach from anywhere over the fixture).
+pub const POSITION_UM: Allowed = Allowed::closed(-MAX_MOVE_UM, MAX_MOVE_UM, "µm");
 /// Most moves a plan may have (bounded loops downstream).
 pub const MAX_MOVES: usize = 4096;
 
@@ -57,34 +63,40 @@ impl Plan {
         Vec2::new(self.probe_start_um[0], self.probe_start_um[1])
     }
 
-    /// Checks every field; errors name the field (and the move index).
+    /// Checks every field; errors name the field (and the move index), the value and the
+    /// allowed range: speed in (0, [`MAX_SPEED_UM_S`]], positions (the peg's start, the
+    /// probe's start and every probe waypoint) within [`POSITION_UM`], the start angle within
+    /// ±720°, each move along x or y and at most [`MAX_MOVE_UM`] long.
     pub fn validate(&self) -> Result<(), Error> {
-        let s = self.speed_um_s;
-        if !(s.is_finite() && s > 0.0 && s <= 10_000.0) {
-            return Err(Error::invalid("plan", format!("speed_um_s = {s} must be in (0, 10000]")));
-        }
+        finite_in(
+            "plan speed_um_s",
+            self.speed_um_s,
+            Allowed::positive_to(MAX_SPEED_UM_S, "µm/s"),
+        )?;
         let p = self.peg_start;
-        if ![p.x_um, p.y_um, p.theta_deg].iter().all(|v| v.is_finite()) {
-            return Err(Error::invalid("plan", "peg_start has a non-finite value"));
-        }
-        if !self.probe_start_um.iter().all(|v| v.is_finite()) {
-            return Err(Error::invalid("plan", "probe_start_um has a non-finite value"));
-        }
-        if self.moves_um.is_empty() || self.moves_um.len() > MAX_MOVES {
-            return Err(Error::invalid("plan", format!("needs 1..={MAX_MOVES} moves")));
-        }
+        finite_in("plan peg_start.x_um", p.x_um, POSITION_UM)?;
+        finite_in("plan peg_start.y_um", p.y_um, POSITION_UM)?;
+        finite_in("plan peg_start.theta_deg", p.theta_deg, Allowed::closed(-720.0, 720.0, "°"))?;
+        all_finite_in("plan probe_start_um", &self.probe_start_um, POSITION_UM)?;
+        let n = self.moves_um.len();
+        int_in("plan moves_um (number of moves)", n, 1, MAX_MOVES, "")?;
+        let mut at = self.probe_start();
         for (i, [dx, dy]) in self.moves_um.iter().enumerate() {
-            let ok = dx.is_finite() && dy.is_finite();
-            if !ok || (*dx != 0.0 && *dy != 0.0) || dx.abs().max(dy.abs()) > MAX_MOVE_UM {
+            let field = format!("plan moves_um[{i}] (move {})", i + 1);
+            let step = Allowed::closed(-MAX_MOVE_UM, MAX_MOVE_UM, "µm");
+            all_finite_in(&field, &[*dx, *dy], step)?;
+            if *dx != 0.0 && *dy != 0.0 {
                 return Err(Error::invalid(
                     "plan",
-                    format!(
-                        "move {} = ({dx}, {dy}) µm must be finite, along x or y only, and at \
-                         most {MAX_MOVE_UM} µm",
-                        i + 1
-                    ),
+                    format!("{field} = ({dx}, {dy}) µm must be along x or y only"),
                 ));
             }
+            at += Vec2::new(*dx, *dy);
+            all_finite_in(
+                &format!("probe position after move {}", i + 1),
+                &[at.x, at.y],
+                POSITION_UM,
+            )?;
         }
         Ok(())
     }
@@ -93,7 +105,7 @@ impl Plan {
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, Error> {
         let plan: Plan = toml::from_str(text)
             .map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
-        plan.validate()?;
+        plan.validate().map_err(|e| Error::Parse { path: path.into(), message: e.to_string() })?;
         Ok(plan)
     }
 

@@ -1,6 +1,8 @@
 //! Finding trial directories: a path given on a command line is a trial directory (it holds
 //! `trial.json`) or a directory of them, nested up to [`MAX_DEPTH`] levels (a batch's
-//! `trials/`, an importer's `<set-up>/<start>/<run>/`).
+//! `trials/`, an importer's `<set-up>/<start>/<run>/`). A directory with a trial's data
+//! (probe.csv or pose.csv) but no `trial.json` is an error naming it, never skipped: a
+//! result computed on fewer trials than given would look like one computed on all.
 
 use crate::Error;
 use std::path::{Path, PathBuf};
@@ -32,6 +34,18 @@ fn collect(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(), Error
     if dir.join(crate::files::META).is_file() {
         out.push(dir.to_path_buf());
         return Ok(());
+    }
+    if let Some(part) =
+        [crate::files::PROBE, crate::files::POSE].iter().find(|f| dir.join(f).is_file())
+    {
+        return Err(Error::invalid(
+            "trial directory",
+            format!(
+                "{}: holds {part} but no {} (a trial directory must have both; not skipped)",
+                dir.display(),
+                crate::files::META
+            ),
+        ));
     }
     if depth == MAX_DEPTH {
         return Ok(());
@@ -65,5 +79,10 @@ mod tests {
         assert_eq!(names, ["a", "b/run-1", "b/run-2"].map(PathBuf::from));
         let err = trial_dirs(&[tmp.path().join("empty")]).unwrap_err().to_string();
         assert!(err.contains("empty") && err.contains("no trial.json"), "{err}");
+        let headless = tmp.path().join("b/run-3");
+        std::fs::create_dir_all(&headless).unwrap();
+        std::fs::write(headless.join("pose.csv"), "").unwrap();
+        let err = trial_dirs(&[tmp.path().to_path_buf()]).unwrap_err().to_string();
+        assert!(err.contains("run-3") && err.contains("no trial.json"), "{err}");
     }
 }

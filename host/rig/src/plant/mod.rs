@@ -1,7 +1,8 @@
 //! The plant: the simulated physical world and the controller's side of the rig — what a
 //! real rig would have on the far side of the executor's serial line and camera.
 //!
-//! - [`world_file`]: the world file (`worlds/*.toml`); [`assemble`]: the world, its camera
+//! - [`world_file`]: the world file (`worlds/*.toml`), its values range-checked by
+//!   [`world_check`]; [`assemble`]: the world, its camera
 //!   timing and optics assembled from a world file, a plan and the seed.
 //! - [`world`]: the `World` the firmware simulator asks for poses and frames (the host's
 //!   simulator with the world's own model); [`needle`]: where the needle's tip rests;
@@ -28,4 +29,5 @@ pub mod start_camera;
 pub mod truth;
 pub mod truth_log;
 pub mod world;
+pub mod world_check;
 pub mod world_file;

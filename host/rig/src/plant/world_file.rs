@@ -6,6 +6,7 @@
 //! does not know about. Documented in `docs/hil.md`. The file's text is kept verbatim: the trial
 //! log stores it in `trial.json` (`world`), where identification never reads it.
 
+use super::world_check::{check_camera, check_optics, check_peg, check_stage_offset};
 use crate::Error;
 use mesopush_core::geom::Vec2;
 use mesopush_firmware_sim::FaultConfig;
@@ -194,9 +195,13 @@ impl WorldFile {
         let name = path.map_or_else(|| PathBuf::from("<world>"), Path::to_path_buf);
         let spec: WorldSpec = toml::from_str(text)
             .map_err(|e| Error::Parse { path: name.clone(), message: e.to_string() })?;
+        let in_file = |e: Error| Error::Parse { path: name.clone(), message: e.to_string() };
         let model = match (&spec.model.inline, &spec.model.path) {
             (Some(_), Some(_)) => {
-                return Err(Error::invalid("world model", "give either `inline` or `path`"));
+                return Err(in_file(Error::invalid(
+                    "world model",
+                    "give either `inline` or `path`",
+                )));
             }
             (Some(m), None) => m.clone(),
             (None, Some(p)) => {
@@ -205,22 +210,9 @@ impl WorldFile {
             }
             (None, None) => Model::default(),
         };
-        let model = with_physical_effects(model, &spec.effects)?;
-        model.validate()?;
-        validated_faults(&spec.faults)?;
-        spec.camera.calibration()?;
-        let [w, h] = spec.camera.size_px;
-        if !(16..=4096).contains(&w) || !(16..=4096).contains(&h) {
-            return Err(Error::invalid("world camera", "size_px must be within 16..=4096"));
-        }
-        if !(1_000..=10_000_000).contains(&spec.camera.period_us) {
-            return Err(Error::invalid("world camera", "period_us must be in 1000..=10000000"));
-        }
-        if let Some(p) = spec.peg.perturb {
-            if !p.iter().all(|v| v.is_finite() && *v >= 0.0) {
-                return Err(Error::invalid("world peg", "perturb must be finite and ≥ 0"));
-            }
-        }
+        let model = with_physical_effects(model, &spec.effects).map_err(in_file)?;
+        model.validate().map_err(|e| in_file(e.into()))?;
+        check_values(&spec).map_err(in_file)?;
         Ok(Self { spec, model, text: text.to_string(), path: path.map(Path::to_path_buf) })
     }
 
@@ -262,6 +254,17 @@ impl WorldFile {
             "camera_period_us": self.spec.camera.period_us,
         })
     }
+}
+
+/// Every value of the world's own tables within its range ([`super::world_check`]).
+fn check_values(spec: &WorldSpec) -> Result<(), Error> {
+    validated_faults(&spec.faults)?;
+    let (c, fx) = (&spec.camera, &spec.effects);
+    check_camera(c.period_us, c.readout_us, c.size_px, fx.camera_latency_us)?;
+    check_optics(c.um_per_px, c.origin_px)?;
+    spec.camera.calibration()?;
+    check_stage_offset(spec.stage.offset_um)?;
+    check_peg(spec.peg.start.as_ref(), spec.peg.perturb)
 }
 
 /// The world's model with the physical part of `effects` (compliance, adhesion, friction

@@ -132,6 +132,7 @@ impl Simulator {
             settings.probe_compliance_um = c;
         }
         settings.validate()?;
+        fixture.validate()?;
         let support_forces = model.validate()?;
         let cones = SupportCones::new(settings.n_directions);
         let char_len_um = model.part.char_length_um();

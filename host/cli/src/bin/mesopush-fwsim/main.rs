@@ -1,13 +1,15 @@
 //! `mesopush-fwsim`: the firmware simulator as its own process, as on a rig. Serves the
 //! simulated motion controller on a pseudo-terminal (prints its path) and the 30 Hz camera on
 //! a Unix socket (prints its address) in real time, until the executor closes the line or the
-//! process is killed. Thin over `mesopush_rig::plant::fwsim` (docs/hil.md).
+//! process is killed. Thin over `mesopush_rig::plant::fwsim` (docs/hil.md). Exit status 0
+//! when the line closed, 2 for invalid input or a start that failed (as `mesopush`).
 
 use anyhow::Context;
 use clap::Parser;
 use mesopush_executor::shell::rt::{RtOptions, apply};
 use mesopush_rig::WorldFile;
 use mesopush_rig::plant::fwsim::{Fwsim, FwsimOptions};
+use mesopush_rig::plant::world_check::check_plan_on_stage;
 use mesopush_sim::Plan;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -40,7 +42,7 @@ struct Args {
     /// Run the controller loop at this SCHED_FIFO priority (1..=99), as the controller's own
     /// microcontroller would not be starved by a loaded host; the renderer and camera threads
     /// keep the normal scheduler. Refused by the OS: a message, and it runs without.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(i32).range(1..=99))]
     rt_priority: Option<i32>,
 }
 
@@ -49,7 +51,7 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            std::process::ExitCode::FAILURE
+            std::process::ExitCode::from(2)
         }
     }
 }
@@ -63,6 +65,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         Some(p) => Plan::load(p)?,
         None => Plan::from_toml(TABLE2_TOML, Path::new("plans/table2.toml (embedded)"))?,
     };
+    check_plan_on_stage(&plan, world.spec.stage.offset_um)?;
     let opts = FwsimOptions { world, plan, seed: args.seed, run_dir: args.run_dir.clone() };
     let sim = Fwsim::start(&opts).context("starting the firmware simulator")?;
     let a = sim.addrs();

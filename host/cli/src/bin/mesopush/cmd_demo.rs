@@ -6,6 +6,7 @@
 use anyhow::Context;
 use clap::Args;
 use mesopush_rig::drive::figure::{TrialFigure, draw_trial};
+use mesopush_rig::plant::world_check::check_plan_on_stage;
 use mesopush_rig::{ClockMode, TrialReport, TrialSpec, WorldFile, run_trial};
 use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
 use std::path::{Path, PathBuf};
@@ -72,6 +73,7 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<()> {
         Some(p) => WorldFile::load(p)?,
         None => WorldFile::default_world(),
     };
+    check_plan_on_stage(&plan, world.spec.stage.offset_um)?;
     let out = args.out.clone().unwrap_or_else(|| fresh_dir(args.seed));
     let spec = TrialSpec {
         trial_id: format!("demo-{}", args.seed),

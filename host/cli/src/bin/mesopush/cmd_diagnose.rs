@@ -40,10 +40,10 @@ enum Mode {
 #[derive(Debug, Args)]
 pub(crate) struct Budgets {
     /// Evaluations of the nominal fit.
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = 300, value_parser = crate::ranges::at_least_one())]
     nominal_evals: usize,
     /// Evaluations per effect fit.
-    #[arg(long, default_value_t = 150)]
+    #[arg(long, default_value_t = 150, value_parser = crate::ranges::at_least_one())]
     effect_evals: usize,
 }
 
@@ -81,10 +81,10 @@ struct SynthArgs {
     #[arg(long, default_value = "runs/diagnose")]
     out: PathBuf,
     /// Trials in the batch.
-    #[arg(long, default_value_t = 6)]
+    #[arg(long, default_value_t = 6, value_parser = crate::ranges::count(2, 100_000))]
     n_trials: usize,
     /// Strokes per trial.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = crate::ranges::count(1, 1000))]
     strokes: usize,
     /// Seed of the batch (true model, strokes, noise).
     #[arg(long, default_value_t = 1)]
@@ -99,7 +99,7 @@ struct RigArgs {
     #[arg(long, default_value = "runs/diagnose")]
     out: PathBuf,
     /// Trials in the batch.
-    #[arg(long, default_value_t = 6)]
+    #[arg(long, default_value_t = 6, value_parser = crate::ranges::count(2, 100_000))]
     n_trials: usize,
     /// Seed of the batch (plans, world noise).
     #[arg(long, default_value_t = 1)]
@@ -175,7 +175,7 @@ pub(crate) fn run(args: &DiagnoseArgs) -> Result<()> {
 #[derive(Debug, Args)]
 struct ConfusionArgs {
     /// Batches per true effect (seeds --seed, --seed + 1, ...).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = crate::ranges::count(1, 10_000))]
     seeds: usize,
     /// Only these true effects (comma-separated library names, `none` for the clean
     /// control); default every effect and the clean control.
@@ -188,10 +188,10 @@ struct ConfusionArgs {
     #[arg(long, default_value = "runs/diagnose")]
     out: PathBuf,
     /// Trials per batch.
-    #[arg(long, default_value_t = 6)]
+    #[arg(long, default_value_t = 6, value_parser = crate::ranges::count(2, 100_000))]
     n_trials: usize,
     /// Strokes per synthetic trial.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = crate::ranges::count(1, 1000))]
     strokes: usize,
     #[command(flatten)]
     budgets: Budgets,

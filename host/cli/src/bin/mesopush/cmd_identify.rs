@@ -4,9 +4,10 @@
 //! sweep into shards and merge them; write a demo dataset of simulated trials with known
 //! truth.
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use mesopush_core::check::Allowed;
 use mesopush_core::shard::Shard;
 use mesopush_ident::figure::{Fig5Trial, draw_fig5};
 use mesopush_ident::shard::{merged_sweep, owned, save, score_shard};
@@ -50,22 +51,22 @@ struct SweepArgs {
     #[arg(required = true)]
     trials: Vec<PathBuf>,
     /// μ grid step over [0, --mu-max].
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = crate::ranges::real(Allowed::positive_to(2.0, "")))]
     mu_step: f64,
     /// Largest μ of the grid.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = crate::ranges::mu())]
     mu_max: f64,
     /// Random three-point supports per μ (the paper: 100–150).
-    #[arg(long, default_value_t = 120)]
+    #[arg(long, default_value_t = 120, value_parser = crate::ranges::count(1, 1_000_000))]
     supports: usize,
     /// Surface friction of the sampled supports.
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, default_value_t = 0.3, value_parser = crate::ranges::mu())]
     mu_surface: f64,
     /// Seed of every random choice (supports, optimiser).
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Probe travel per simulation step, µm.
-    #[arg(long, default_value_t = SimSettings::default().step_um)]
+    #[arg(long, default_value_t = SimSettings::default().step_um, value_parser = crate::ranges::step_um())]
     step_um: f64,
 }
 
@@ -77,7 +78,7 @@ struct FitArgs {
     #[arg(long)]
     optimize: bool,
     /// Optimiser budget: objective evaluations (each simulates every trial).
-    #[arg(long, default_value_t = 600, requires = "optimize")]
+    #[arg(long, default_value_t = 600, requires = "optimize", value_parser = crate::ranges::at_least_one())]
     max_evals: usize,
     /// Let the optimiser fit the (shared) surface friction too.
     #[arg(long, requires = "optimize")]
@@ -138,10 +139,10 @@ struct SynthArgs {
     #[arg(long, default_value = "peg")]
     part: DemoPart,
     /// Scale factor of the part, its support and the push lengths.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = crate::ranges::real(Allowed::positive_to(100.0, "")))]
     scale: f64,
     /// Probe speed, µm/s.
-    #[arg(long, default_value_t = 200.0)]
+    #[arg(long, default_value_t = 200.0, value_parser = crate::ranges::real(Allowed::positive_to(10_000.0, "µm/s")))]
     speed_um_s: f64,
     /// Seed of the tracking noise.
     #[arg(long, default_value_t = 1)]
@@ -163,31 +164,8 @@ fn bar(n: u64, msg: &'static str, hidden: bool) -> ProgressBar {
     b
 }
 
-/// Expands directories holding trial directories into the trials themselves.
-fn trial_dirs(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
-    let mut out = Vec::new();
-    for p in paths {
-        if p.join("trial.json").exists() {
-            out.push(p.clone());
-            continue;
-        }
-        let rd = std::fs::read_dir(p)
-            .with_context(|| format!("{}: not a trial directory", p.display()))?;
-        let mut sub: Vec<PathBuf> = rd
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|d| d.join("trial.json").exists())
-            .collect();
-        if sub.is_empty() {
-            bail!("{}: no trial.json in it or in its subdirectories", p.display());
-        }
-        sub.sort();
-        out.extend(sub);
-    }
-    Ok(out)
-}
-
 fn load_trials(args: &SweepArgs) -> Result<Vec<IdentTrial>> {
-    let dirs = trial_dirs(&args.trials)?;
+    let dirs = mesopush_trial::trial_dirs(&args.trials)?;
     Ok(dirs.iter().map(|d| IdentTrial::load(d)).collect::<Result<_, _>>()?)
 }
 

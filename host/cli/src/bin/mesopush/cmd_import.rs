@@ -4,6 +4,7 @@
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
+use mesopush_core::check::Allowed;
 use mesopush_trial::import::zhou_mason::{self, ImportOptions, ImportReport};
 use std::path::PathBuf;
 
@@ -33,7 +34,7 @@ struct ZhouMasonArgs {
     out: PathBuf,
     /// How much later than the hand the object's pose is logged, ms (pose.csv stamps are
     /// moved earlier by it; 0 keeps the logged pairing).
-    #[arg(long, default_value_t = 150.0)]
+    #[arg(long, default_value_t = 150.0, value_parser = crate::ranges::real(Allowed::closed(-10_000.0, 10_000.0, "ms")))]
     vision_latency_ms: f64,
     /// Print the report as JSON.
     #[arg(long)]

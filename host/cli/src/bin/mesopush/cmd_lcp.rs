@@ -1,6 +1,7 @@
 //! `mesopush lcp solve FILE`: solve an (M)LCP from a dense Siconos `.dat` file with our solver
 //! and print the verified answer (or the named failure), optionally timing repeated solves.
 
+use mesopush_core::check::Allowed;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -32,16 +33,16 @@ enum LcpCommand {
 #[derive(Debug, Args)]
 struct StepsArgs {
     /// Number of random step problems.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=10_000_000))]
     count: u64,
     /// Seed of the first problem (problem k uses seed + k).
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Fixture contacts besides the probe (each adds 4 complementarity variables).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = crate::ranges::count(0, 64))]
     fixtures: usize,
     /// Timed solves per problem.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, value_parser = crate::ranges::at_least_one())]
     runs: usize,
     /// Print a JSON summary.
     #[arg(long)]
@@ -59,16 +60,16 @@ struct SolveArgs {
     #[arg(long)]
     json: bool,
     /// Solve the problem N times in this process and report the median time per solve.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = crate::ranges::at_least_one())]
     bench: Option<usize>,
     /// Lemke pivot limit per attempt.
-    #[arg(long, default_value_t = LcpSettings::default().max_pivots)]
+    #[arg(long, default_value_t = LcpSettings::default().max_pivots, value_parser = crate::ranges::at_least_one())]
     max_pivots: usize,
     /// Acceptance tolerance on the scaled residuals.
-    #[arg(long, default_value_t = LcpSettings::default().tol)]
+    #[arg(long, default_value_t = LcpSettings::default().tol, value_parser = crate::ranges::real(Allowed::positive_to(1.0, "")))]
     tol: f64,
     /// Largest n for the enumeration fallback (0 disables it).
-    #[arg(long, default_value_t = LcpSettings::default().enumerate_max_n)]
+    #[arg(long, default_value_t = LcpSettings::default().enumerate_max_n, value_parser = crate::ranges::count(0, 30))]
     enumerate_max_n: usize,
 }
 

@@ -6,6 +6,7 @@
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use mesopush_core::check::Allowed;
 use mesopush_core::geom::Pose;
 use mesopush_sim::{Fixture, Model, SimSettings, Simulator};
 use std::path::{Path, PathBuf};
@@ -51,7 +52,7 @@ struct CommonArgs {
     #[arg(long, value_parser = parse_pose)]
     start: Option<Pose>,
     /// Wall-clock limit of the search, s.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = 60.0, value_parser = crate::ranges::real(Allowed::positive_to(1e6, "s")))]
     time_limit_s: f64,
     /// Also draw the plan's nominal replay (Fig. 6 style) to this PNG or SVG.
     #[arg(long)]

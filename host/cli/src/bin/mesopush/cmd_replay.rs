@@ -5,6 +5,7 @@
 use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use mesopush_core::check::Allowed;
 use mesopush_diagnose::replay::{ReplayOptions, ReplayReport, replay_dirs};
 use mesopush_ident::figure::draw_tracks;
 use mesopush_sim::{Model, SimSettings};
@@ -28,7 +29,7 @@ pub(crate) struct ReplayArgs {
     /// How far a recorded pusher may start inside the part, as a fraction of the part's size
     /// (the part is moved clear first); default: the trial's `registration_tol_um`, else the
     /// simulator's (0.02).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::ranges::real(Allowed::closed(0.0, 0.5, "")))]
     registration_tol: Option<f64>,
     /// Print one JSON object instead of text.
     #[arg(long)]
@@ -67,11 +68,13 @@ pub(crate) fn run(a: &ReplayArgs) -> Result<()> {
     if let Some(e) = fig_errors.first() {
         anyhow::bail!("{} figure(s) could not be drawn, first: {e}", fig_errors.len());
     }
-    if !report.failures.is_empty() {
+    if let Some(first) = report.failures.first() {
         anyhow::bail!(
-            "{} of {} trials could not be replayed (listed above)",
+            "{} of {} trials could not be replayed (all listed above), first: {}: {}",
             report.failures.len(),
-            dirs.len()
+            dirs.len(),
+            first.trial,
+            first.reason
         );
     }
     Ok(())

@@ -8,6 +8,7 @@
 use crate::cmd_plan::bar;
 use anyhow::Result;
 use clap::{Args, Subcommand};
+use mesopush_core::check::Allowed;
 use mesopush_core::shard::Shard;
 use mesopush_plan::robustness::{PlanRow, RobustnessRun, ShardRow, merge_shards};
 use mesopush_plan::{SupportSet, Uncertainty};
@@ -40,7 +41,7 @@ struct RunArgs {
     #[arg(required = true)]
     plans: Vec<PathBuf>,
     /// Trials per plan.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, value_parser = crate::ranges::at_least_one())]
     samples: usize,
     /// Master seed (trial i draws from its own stream: same seed, same result).
     #[arg(long, default_value_t = 1)]
@@ -56,19 +57,19 @@ struct RunArgs {
     #[arg(long)]
     fixture: Option<PathBuf>,
     /// Start x error, ± µm.
-    #[arg(long, default_value_t = Uncertainty::default().dx_um)]
+    #[arg(long, default_value_t = Uncertainty::default().dx_um, value_parser = crate::ranges::length_um(10_000.0))]
     dx_um: f64,
     /// Start y error, ± µm.
-    #[arg(long, default_value_t = Uncertainty::default().dy_um)]
+    #[arg(long, default_value_t = Uncertainty::default().dy_um, value_parser = crate::ranges::length_um(10_000.0))]
     dy_um: f64,
     /// Start orientation error, ± degrees.
-    #[arg(long, default_value_t = Uncertainty::default().dtheta_deg)]
+    #[arg(long, default_value_t = Uncertainty::default().dtheta_deg, value_parser = crate::ranges::real(Allowed::closed(0.0, 180.0, "°")))]
     dtheta_deg: f64,
     /// Friction error, ± (on μ_probe, μ_wall and each support's μ).
-    #[arg(long, default_value_t = Uncertainty::default().dmu)]
+    #[arg(long, default_value_t = Uncertainty::default().dmu, value_parser = crate::ranges::real(Allowed::closed(0.0, 2.0, "")))]
     dmu: f64,
     /// Support point error when no --supports set is given, ± µm per coordinate.
-    #[arg(long, default_value_t = Uncertainty::default().support_um)]
+    #[arg(long, default_value_t = Uncertainty::default().support_um, value_parser = crate::ranges::length_um(10_000.0))]
     support_um: f64,
     /// Also sweep the uncertainty box's scale over 0.5, 0.75, 1, 1.5, 2 and plot it.
     #[arg(long)]

@@ -5,6 +5,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use mesopush_core::geom::Vec2;
 use mesopush_core::stats::percentile;
+use mesopush_sim::start::check_start;
 use mesopush_sim::{
     Fixture, Model, Plan, Replay, SimSettings, SimState, Simulator, SupportFriction, replay,
     trajectory,
@@ -29,10 +30,10 @@ pub(crate) struct SimArgs {
     #[arg(long, default_value = "runs/sim")]
     out: PathBuf,
     /// Probe travel per step, µm.
-    #[arg(long, default_value_t = SimSettings::default().step_um)]
+    #[arg(long, default_value_t = SimSettings::default().step_um, value_parser = crate::ranges::step_um())]
     step_um: f64,
     /// Friction directions per support (the polygonal cone).
-    #[arg(long, default_value_t = SimSettings::default().n_directions)]
+    #[arg(long, default_value_t = SimSettings::default().n_directions, value_parser = crate::ranges::count(3, 64))]
     n_directions: usize,
     /// Support friction: `coulomb`, the circular cone solved exactly (default), or
     /// `polygon`, the paper's `--n-directions` directions in the part's body frame
@@ -43,7 +44,7 @@ pub(crate) struct SimArgs {
     #[arg(long)]
     json: bool,
     /// Time the replay and its steps over this many runs instead of writing outputs.
-    #[arg(long, value_name = "RUNS", num_args = 0..=1, default_missing_value = "30")]
+    #[arg(long, value_name = "RUNS", num_args = 0..=1, default_missing_value = "30", value_parser = crate::ranges::count(1, 100_000))]
     bench: Option<usize>,
 }
 
@@ -68,6 +69,8 @@ pub(crate) fn run(args: &SimArgs) -> Result<()> {
         ..Default::default()
     };
     let mut sim = Simulator::new(model, fixture, settings)?;
+    let what = format!("{}: peg_start", args.plan.display());
+    check_start(&mut sim, &what, plan.peg_start_pose(), Some(plan.probe_start()))?;
     if let Some(runs) = args.bench {
         return bench(&mut sim, &plan, runs.max(1), args.json);
     }

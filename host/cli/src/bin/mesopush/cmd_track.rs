@@ -2,6 +2,7 @@
 //! against a background frame, and writes pose.csv (and optionally overlays and a JSON
 //! summary). See `mesopush_vision::folder` for what is read from frames.csv.
 
+use mesopush_core::check::Allowed;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -43,7 +44,7 @@ pub(crate) struct TrackArgs {
     #[arg(long, value_name = "L,W", default_value = "1615,985")]
     peg_um: String,
     /// Orientation the first frame is taken to be near, rad (the ellipse gives θ modulo π).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = crate::ranges::real(Allowed::closed(-10.0, 10.0, "rad")))]
     theta0_rad: f64,
     /// Also write each frame with the detected outline and tip drawn on it to this folder.
     #[arg(long)]
@@ -78,6 +79,9 @@ fn settings(args: &TrackArgs, width: u32, height: u32) -> anyhow::Result<TrackSe
         Calibration::from_field(fw, fh, width, height)?.with_origin(Vec2::new(ox, oy))?
     };
     let (l, w) = pair("--peg-um", &args.peg_um)?;
+    if !(l > 0.0 && w > 0.0 && l <= 1e5 && w <= 1e5) {
+        bail!("invalid --peg-um = {l},{w}: allowed: both in (0, 100000] µm");
+    }
     let peg = ConvexPolygon::rectangle(l, w).with_context(|| format!("--peg-um {l},{w}"))?;
     let threshold = match args.threshold {
         Some(t) if !(t > 0.0 && t < 1.0) => bail!("--threshold must be in (0, 1), got {t}"),

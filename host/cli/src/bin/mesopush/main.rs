@@ -18,6 +18,7 @@ mod cmd_robustness;
 mod cmd_run;
 mod cmd_sim;
 mod cmd_track;
+mod ranges;
 mod verdict;
 
 use clap::{Parser, Subcommand};

@@ -4,6 +4,7 @@
 //! that does not parse is refused naming the file, line, field and value.
 
 use crate::Error;
+use mesopush_core::check::show;
 use std::path::Path;
 
 /// The columns of a run file, in order.
@@ -16,6 +17,19 @@ pub const COLUMNS: [&str; 8] = [
     "pusher_y_mm",
     "pusher_theta_rad",
     "action",
+];
+
+/// What each numeric column allows (inclusive): Unix times from 1970 to year ~5000, table
+/// positions within ±10 m, angles within ±10 000 rad (unwrapped angles stay far inside);
+/// anything beyond is a corrupt file, not a push.
+const ALLOWED: [(f64, f64, &str); 7] = [
+    (0.0, 1e11, "s"),
+    (-1e4, 1e4, "mm"),
+    (-1e4, 1e4, "mm"),
+    (-1e4, 1e4, "rad"),
+    (-1e4, 1e4, "mm"),
+    (-1e4, 1e4, "mm"),
+    (-1e4, 1e4, "rad"),
 ];
 
 /// One line of a run file.
@@ -61,8 +75,16 @@ fn parse_line(path: &Path, line: u64, text: &str) -> Result<RunRow, Error> {
     }
     let mut v = [0.0; 7];
     for (i, cell) in cells[..7].iter().enumerate() {
+        let (lo, hi, unit) = ALLOWED[i];
         v[i] = match cell.parse::<f64>() {
-            Ok(x) if x.is_finite() => x,
+            Ok(x) if x.is_finite() && (lo..=hi).contains(&x) => x,
+            Ok(x) if x.is_finite() => {
+                return Err(bad(
+                    path,
+                    line,
+                    format!("field {} = {}; allowed: [{lo}, {hi}] {unit}", COLUMNS[i], show(x)),
+                ));
+            }
             _ => {
                 return Err(bad(
                     path,

@@ -3,14 +3,16 @@
 //! printed.
 
 use super::{CommonArgs, bar, load_world};
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::Args;
+use mesopush_core::check::Allowed;
 use mesopush_plan::figures::draw_replayed_plan;
 use mesopush_plan::skeleton::NAMES;
 use mesopush_plan::{
     RobustReport, RobustSearch, RobustSettings, Skeleton, UncertainWorld, search_robust,
 };
 use mesopush_sim::Plan;
+use mesopush_sim::start::check_start;
 use serde_json::json;
 
 /// The robust search's options.
@@ -19,14 +21,14 @@ pub(super) struct RobustArgs {
     #[command(flatten)]
     common: CommonArgs,
     /// CEM generations per round.
-    #[arg(long, default_value_t = RobustSettings::default().generations)]
+    #[arg(long, default_value_t = RobustSettings::default().generations, value_parser = crate::ranges::at_least_one())]
     generations: usize,
     /// Sampled worlds each candidate is scored on.
-    #[arg(long, default_value_t = RobustSettings::default().samples)]
+    #[arg(long, default_value_t = RobustSettings::default().samples, value_parser = crate::ranges::count(2, 1_000_000))]
     train_samples: usize,
     /// Simulator step of the training replays, µm (validation and the check use the
     /// full-fidelity default).
-    #[arg(long, default_value_t = RobustSettings::default().train_step_um)]
+    #[arg(long, default_value_t = RobustSettings::default().train_step_um, value_parser = crate::ranges::step_um())]
     train_step_um: f64,
     /// Score every generation on one common set of training worlds instead of drawing new
     /// ones each generation.
@@ -34,14 +36,16 @@ pub(super) struct RobustArgs {
     common_worlds: bool,
     /// Scale of the uncertainty box the training worlds are drawn from (the validation and
     /// the check use the default box).
-    #[arg(long, default_value_t = RobustSettings::default().train_scale)]
+    #[arg(long, default_value_t = RobustSettings::default().train_scale, value_parser = crate::ranges::real(Allowed::positive_to(100.0, "")))]
     train_scale: f64,
     /// Most CEM rounds (another runs only while no finalist reaches --accept-rate on the
     /// validation worlds).
-    #[arg(long, default_value_t = RobustSettings::default().rounds)]
+    #[arg(long, default_value_t = RobustSettings::default().rounds, value_parser = crate::ranges::at_least_one())]
     rounds: usize,
-    /// Validation success rate that ends the search after a round.
-    #[arg(long, default_value_t = RobustSettings::default().accept_rate)]
+    /// Validation success rate that ends the search after a round (above 1: never reached,
+    /// every round runs).
+    #[arg(long, default_value_t = RobustSettings::default().accept_rate,
+          value_parser = crate::ranges::real(Allowed::closed(0.0, 2.0, "")))]
     accept_rate: f64,
     /// Start the search at the shipped design (plans/robust.toml's parameters) instead of
     /// Table II's numbers with the press on the rotated peg's right end. It then refines that
@@ -55,25 +59,25 @@ pub(super) struct RobustArgs {
     #[arg(long)]
     from_table2: bool,
     /// Candidates per CEM generation.
-    #[arg(long, default_value_t = RobustSettings::default().population)]
+    #[arg(long, default_value_t = RobustSettings::default().population, value_parser = crate::ranges::count(2, 1_000_000))]
     population: usize,
     /// Best candidates that set the next generation's distribution.
-    #[arg(long, default_value_t = RobustSettings::default().elite)]
+    #[arg(long, default_value_t = RobustSettings::default().elite, value_parser = crate::ranges::at_least_one())]
     elite: usize,
     /// Candidates re-scored on the validation worlds.
-    #[arg(long, default_value_t = RobustSettings::default().finalists)]
+    #[arg(long, default_value_t = RobustSettings::default().finalists, value_parser = crate::ranges::at_least_one())]
     finalists: usize,
     /// Validation worlds the best candidates are re-scored on.
-    #[arg(long, default_value_t = RobustSettings::default().validation_samples)]
+    #[arg(long, default_value_t = RobustSettings::default().validation_samples, value_parser = crate::ranges::at_least_one())]
     validation_samples: usize,
     /// The most validated finalists re-scored on fresh confirmation worlds.
-    #[arg(long, default_value_t = RobustSettings::default().confirm_top)]
+    #[arg(long, default_value_t = RobustSettings::default().confirm_top, value_parser = crate::ranges::at_least_one())]
     confirm_top: usize,
     /// Confirmation worlds (0: the most validated finalist wins).
-    #[arg(long, default_value_t = RobustSettings::default().confirm_samples)]
+    #[arg(long, default_value_t = RobustSettings::default().confirm_samples, value_parser = crate::ranges::count(0, 10_000_000))]
     confirm_samples: usize,
     /// Fresh Monte Carlo trials for the reported success rate.
-    #[arg(long, default_value_t = RobustSearch::default().check_samples)]
+    #[arg(long, default_value_t = RobustSearch::default().check_samples, value_parser = crate::ranges::at_least_one())]
     check_samples: usize,
     /// Master seed of the fresh check (default: derived from --seed, never the design's own
     /// draws).
@@ -83,9 +87,17 @@ pub(super) struct RobustArgs {
 
 pub(super) fn run(args: &RobustArgs) -> Result<()> {
     let c = &args.common;
+    if args.elite > args.population {
+        bail!(
+            "invalid --elite = {}: allowed 1..={} (at most --population)",
+            args.elite,
+            args.population
+        );
+    }
     let mut sim = load_world(c.model.as_deref(), c.fixture.as_deref())?;
     let mut start = Plan::table2().peg_start;
     if let Some(p) = c.start {
+        check_start(&mut sim, "--start", p, None)?;
         (start.x_um, start.y_um, start.theta_deg) = (p.x_um, p.y_um, p.theta_rad.to_degrees());
     }
     let search = RobustSearch {
@@ -118,19 +130,19 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
 /// The optimiser's settings from the flags.
 fn robust_settings(args: &RobustArgs) -> RobustSettings {
     RobustSettings {
-        generations: args.generations.max(1),
-        samples: args.train_samples.max(2),
+        generations: args.generations,
+        samples: args.train_samples,
         validation_samples: args.validation_samples,
         train_step_um: args.train_step_um,
         resample: !args.common_worlds,
         train_scale: args.train_scale,
-        finalists: args.finalists.max(1),
-        population: args.population.max(2),
-        rounds: args.rounds.max(1),
+        finalists: args.finalists,
+        population: args.population,
+        rounds: args.rounds,
         accept_rate: args.accept_rate,
-        confirm_top: args.confirm_top.max(1),
+        confirm_top: args.confirm_top,
         confirm_samples: args.confirm_samples,
-        elite: args.elite.clamp(1, args.population.max(2)),
+        elite: args.elite,
         initial: if args.from_shipped { Skeleton::best_known() } else { Skeleton::table2_like() },
         press_on_rotated: !(args.from_shipped || args.from_table2),
         ..Default::default()

@@ -3,10 +3,12 @@
 use super::{CommonArgs, bar, load_world};
 use anyhow::{Context, Result};
 use clap::Args;
+use mesopush_core::check::Allowed;
 use mesopush_plan::figures::draw_replayed_plan;
 use mesopush_plan::pushes::PushSettings;
 use mesopush_plan::{RrtProgress, RrtSettings, plan_rrt_within};
 use mesopush_sim::Plan;
+use mesopush_sim::start::check_start;
 use serde_json::json;
 
 /// The RRT's options.
@@ -15,19 +17,19 @@ pub(super) struct RrtArgs {
     #[command(flatten)]
     common: CommonArgs,
     /// RRT iterations before giving up.
-    #[arg(long, default_value_t = RrtSettings::default().max_iterations)]
+    #[arg(long, default_value_t = RrtSettings::default().max_iterations, value_parser = crate::ranges::at_least_one())]
     max_iterations: usize,
     /// Random pushes simulated per iteration.
-    #[arg(long, default_value_t = RrtSettings::default().inputs_per_iteration)]
+    #[arg(long, default_value_t = RrtSettings::default().inputs_per_iteration, value_parser = crate::ranges::count(1, 100_000))]
     inputs: usize,
     /// Pushing locations on the peg boundary.
-    #[arg(long, default_value_t = PushSettings::default().n_locations)]
+    #[arg(long, default_value_t = PushSettings::default().n_locations, value_parser = crate::ranges::count(4, 4096))]
     locations: usize,
     /// Most push drops the shortcut pass tries on the found branch (0: keep it as found).
-    #[arg(long, default_value_t = RrtSettings::default().shortcut_attempts)]
+    #[arg(long, default_value_t = RrtSettings::default().shortcut_attempts, value_parser = crate::ranges::count(0, 1_000_000))]
     shortcut_attempts: usize,
     /// Orientation window of the goal connection while shortcutting, degrees.
-    #[arg(long, default_value_t = RrtSettings::default().shortcut_connect_theta_deg)]
+    #[arg(long, default_value_t = RrtSettings::default().shortcut_connect_theta_deg, value_parser = crate::ranges::real(Allowed::positive_to(180.0, "°")))]
     shortcut_connect_deg: f64,
 }
 
@@ -35,12 +37,13 @@ pub(super) fn run(args: &RrtArgs) -> Result<()> {
     let c = &args.common;
     let mut sim = load_world(c.model.as_deref(), c.fixture.as_deref())?;
     let start = c.start.unwrap_or_else(|| Plan::table2().peg_start_pose());
+    check_start(&mut sim, "--start", start, None)?;
     let settings = RrtSettings {
         max_iterations: args.max_iterations,
-        inputs_per_iteration: args.inputs.max(1),
+        inputs_per_iteration: args.inputs,
         shortcut_attempts: args.shortcut_attempts,
         shortcut_connect_theta_deg: args.shortcut_connect_deg,
-        pushes: PushSettings { n_locations: args.locations.max(4), ..Default::default() },
+        pushes: PushSettings { n_locations: args.locations, ..Default::default() },
         ..Default::default()
     };
     let bar = bar(settings.max_iterations as u64, c.json);
