@@ -250,7 +250,7 @@ fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bo
 /// Gauss–Newton covariance (JᵀJ)⁻¹ at the fit (J the forward-difference Jacobian of the
 /// noise-weighted residual vector, so the loss is a χ²), scaled by the reduced χ² so a misfit
 /// widens them. Correlated parameters widen each other; a direction the trials do not
-/// determine makes JᵀJ singular and every σ of that fit infinite (reported as undetermined).
+/// determine makes JᵀJ singular and its σ infinite (reported as undetermined).
 fn attach_uncertainty(
     fits: &[&Fit],
     scores: &mut [EffectScore],
@@ -286,17 +286,23 @@ fn sigmas(f: &Fit, train: &[TrialData], s: &SimSettings, noise: &Noise) -> Vec<f
     let Some(j) = cols.into_iter().collect::<Option<Vec<Vec<f64>>>>() else {
         return vec![f64::INFINITY; n];
     };
-    let jtj: Vec<Vec<f64>> = (0..n)
-        .map(|a| (0..n).map(|b| j[a].iter().zip(&j[b]).map(|(x, y)| x * y).sum()).collect())
+    // A parameter the fit left at a bound (a patch edge at the plate's edge) has no effect
+    // nearby: it is undetermined and left out of the others' covariance.
+    let live: Vec<usize> = (0..n).filter(|&i| j[i].iter().any(|v| *v != 0.0)).collect();
+    let m = live.len();
+    let jtj: Vec<Vec<f64>> = live
+        .iter()
+        .map(|&a| live.iter().map(|&b| j[a].iter().zip(&j[b]).map(|(x, y)| x * y).sum()).collect())
         .collect();
     let red = (f.loss / f.n as f64).max(1.0);
-    (0..n)
-        .map(|i| {
-            let e: Vec<f64> = (0..n).map(|k| if k == i { 1.0 } else { 0.0 }).collect();
-            match mesopush_ident::optim::lm::solve(jtj.clone(), e) {
-                Some(x) if x[i] > 0.0 && x[i].is_finite() => (x[i] * red).sqrt(),
-                _ => f64::INFINITY,
+    let mut out = vec![f64::INFINITY; n];
+    for (k, &i) in live.iter().enumerate() {
+        let e: Vec<f64> = (0..m).map(|q| if q == k { 1.0 } else { 0.0 }).collect();
+        if let Some(x) = mesopush_ident::optim::lm::solve(jtj.clone(), e) {
+            if x[k] > 0.0 && x[k].is_finite() {
+                out[i] = (x[k] * red).sqrt();
             }
-        })
-        .collect()
+        }
+    }
+    out
 }
