@@ -5,6 +5,7 @@
 use mesopush_core::stats::{Z95, wilson_interval};
 use mesopush_plan::montecarlo::draws;
 use mesopush_plan::{MonteCarlo, Uncertainty};
+use mesopush_sim::support_set::SupportSample;
 use mesopush_sim::{Fixture, Model, Plan, SimSettings, SupportDistribution};
 use rand::{RngExt, SeedableRng};
 
@@ -73,7 +74,11 @@ fn a_plan_that_cannot_insert_scores_zero() {
 #[test]
 fn draws_respect_the_box_and_the_candidate_supports() {
     let model = Model::default();
-    let candidates = vec![model.support.clone(), SupportDistribution::symmetric(200.0, 250.0, 0.4)];
+    let candidates: Vec<SupportSample> =
+        [model.support.clone(), SupportDistribution::symmetric(200.0, 250.0, 0.4)]
+            .iter()
+            .map(|s| SupportSample::new(None, s))
+            .collect();
     let unc = Uncertainty::default();
     let d = draws(&model, &unc, &candidates, 64, 9);
     assert_eq!(d, draws(&model, &unc, &candidates, 64, 9));
@@ -86,6 +91,17 @@ fn draws_respect_the_box_and_the_candidate_supports() {
         assert!((w.model.mu_probe - model.mu_probe).abs() <= 0.1 + 1e-12);
     }
     assert_eq!(used, [true, true]);
+    // Pairs from identification are drawn whole: their μ_probe and surface μ as fitted.
+    let pairs: Vec<SupportSample> = candidates
+        .iter()
+        .zip([0.41, 0.93])
+        .map(|(c, mu)| SupportSample { mu_probe: Some(mu), ..c.clone() })
+        .collect();
+    for w in draws(&model, &unc, &pairs, 64, 9) {
+        let i = w.support_index.expect("drawn from the set");
+        assert_eq!(w.model.mu_probe, pairs[i].mu_probe.unwrap());
+        assert_eq!(w.model.support, pairs[i].support());
+    }
     // Without candidates the supports are perturbed and stay valid (COM inside).
     for w in draws(&model, &unc, &[], 64, 9) {
         assert!(w.support_index.is_none());
@@ -245,7 +261,7 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
 
 #[test]
 fn support_set_files_load_as_toml_or_json_and_name_a_bad_candidate() {
-    use mesopush_plan::SupportSet;
+    use mesopush_sim::support_set::SupportSet;
     let dir = tempfile::tempdir().unwrap();
     let model = Model::default();
     let toml_path = dir.path().join("supports.toml");
@@ -257,15 +273,15 @@ fn support_set_files_load_as_toml_or_json_and_name_a_bad_candidate() {
          mu_surface = [0.25, 0.3, 0.35]\n",
     )
     .unwrap();
-    let set = SupportSet::load(&toml_path, &model).unwrap();
+    let set = SupportSet::load(&toml_path, &model.part).unwrap();
     assert_eq!(set.support.len(), 2);
     let json_path = dir.path().join("supports.json");
     std::fs::write(&json_path, serde_json::to_string(&set.support).unwrap()).unwrap();
-    assert_eq!(SupportSet::load(&json_path, &model).unwrap(), set);
+    assert_eq!(SupportSet::load(&json_path, &model.part).unwrap(), set);
     let bad = toml_path.with_file_name("bad.toml");
     let text = std::fs::read_to_string(&toml_path).unwrap().replace("400.0, 0.0", "4000.0, 0.0");
     std::fs::write(&bad, text).unwrap();
-    let e = SupportSet::load(&bad, &model).unwrap_err().to_string();
+    let e = SupportSet::load(&bad, &model.part).unwrap_err().to_string();
     assert!(e.contains("support 2") && e.contains("bad.toml"), "{e}");
 }
 

@@ -32,7 +32,6 @@ pub struct Adequacy {
 /// simplex evaluations over the models physical for the whole batch, and scores it there.
 pub fn refit_on_all(
     all: &[TrialData],
-    base: &Model,
     from: &Fit,
     settings: &SimSettings,
     noise: &Noise,
@@ -42,7 +41,7 @@ pub fn refit_on_all(
     let start = [from.values.clone()];
     let last = all.iter().map(|t| t.index).max().unwrap_or(0);
     let ok = |m: &Model| valid_over_batch(m, last);
-    let f = fit_where(from.candidate, base, all, settings, noise, &start, evals, &ok);
+    let f = fit_where(from.candidate, &from.base, all, settings, noise, &start, evals, &ok);
     let r = residuals(all, &f.model, settings)?;
     let error_norm = Mse::of(&r).normalised(noise, with_tip);
     Ok(Adequacy { fit: f, error_norm })
@@ -53,8 +52,6 @@ pub fn refit_on_all(
 pub struct AllTrials<'a> {
     /// Every trial, training and held-out.
     pub all: &'a [TrialData],
-    /// The base model the candidates apply to.
-    pub base: &'a Model,
     /// Simulator settings.
     pub settings: &'a SimSettings,
     /// The measurement floor.
@@ -104,15 +101,7 @@ impl AllTrials<'_> {
     }
 
     fn refit(&self, from: &Fit, evals: usize) -> Result<f64, Error> {
-        let a = refit_on_all(
-            self.all,
-            self.base,
-            from,
-            self.settings,
-            self.noise,
-            evals,
-            self.with_tip,
-        )?;
+        let a = refit_on_all(self.all, from, self.settings, self.noise, evals, self.with_tip)?;
         Ok(a.error_norm)
     }
 }

@@ -5,13 +5,15 @@
 //! `unexplained` otherwise.
 
 use super::adequacy::AllTrials;
-use super::candidates::{Effect, NOMINAL, base_model};
+use super::candidates::{Effect, NOMINAL, base_model, mean_mu_surface};
 use super::data::TrialData;
 use super::decide::{Ambiguity, EffectScore, Verdict, decide, training_lead};
 use super::fit::{Fit, fit, fit_where};
-use super::objective::{loss, residuals};
+use super::nominal::{Held, SupportFit, nominal_base};
+use super::objective::{loss, residual_vector, residuals};
 use super::options::Options;
 use super::predict::valid_over_batch;
+use super::replay::{ReplayOptions, settings_for};
 use super::residual::{Mse, Noise, Residual};
 use super::starts::{StartContext, starts};
 use crate::Error;
@@ -48,6 +50,8 @@ pub struct Diagnosis {
     /// When the verdict is `unexplained`: the effect that fits the training trials best
     /// (beating the nominal BIC by `min_delta_bic`), a lead for whoever looks further.
     pub training_lead: Option<Effect>,
+    /// The nominal support fit: which family was kept, and each family's held-out error.
+    pub support_fit: SupportFit,
     /// Training and held-out trial ids.
     pub split: (Vec<String>, Vec<String>),
     /// Held-out residuals before (nominal) and after (extended model).
@@ -63,7 +67,6 @@ pub struct Diagnosis {
 fn rescue_nominal(
     nominal: Fit,
     fits: &[Fit],
-    base: &Model,
     train: &[TrialData],
     s: &SimSettings,
     noise: &Noise,
@@ -74,12 +77,12 @@ fn rescue_nominal(
         .iter()
         .map(|f| {
             let v = f.values[..k].to_vec();
-            let l = loss(train, &Effect::Nominal.apply(base, &v), s, noise).0;
-            (v, l)
+            let l = loss(train, &Effect::Nominal.apply(&f.base, &v), s, noise).0;
+            (v, l, &f.base)
         })
         .min_by(|a, b| a.1.total_cmp(&b.1));
     match best {
-        Some((v, l)) if l < nominal.loss => {
+        Some((v, l, base)) if l < nominal.loss => {
             let refit = fit(Effect::Nominal, base, train, s, noise, &[v], evals / 2);
             if refit.loss < nominal.loss { refit } else { nominal }
         }
@@ -98,26 +101,31 @@ fn bic(f: &Fit) -> f64 {
 
 /// Every candidate of `opts` fitted on `train` from its signature's starts about the
 /// `nominal` fit (in parallel, collected in the candidates' order).
+#[allow(clippy::too_many_arguments)]
 fn fit_effects(
-    base: &Model,
     nominal: &Fit,
+    prior_mu: [f64; 2],
     train: &[TrialData],
     noise: &Noise,
     last_index: usize,
-    opts: &Options,
+    (s, opts): (&SimSettings, &Options),
     progress: &(dyn Fn(&str) + Sync),
 ) -> Vec<Fit> {
-    let s = &opts.settings;
     opts.candidates
         .par_iter()
         .map(|&c| {
             progress(c.name());
-            let ctx =
-                StartContext { base, settings: s, noise, evals_per_trial: opts.effect_evals / 3 };
+            let ctx = StartContext {
+                base: &nominal.base,
+                settings: s,
+                noise,
+                evals_per_trial: opts.effect_evals / 3,
+                prior_mu,
+            };
             let st = starts(c, &nominal.values, train, &ctx);
             let budget = opts.effect_evals.max(st.len() + 4);
             let ok = |m: &Model| valid_over_batch(m, last_index);
-            fit_where(c, base, train, s, noise, &st, budget, &ok)
+            fit_where(c, &nominal.base, train, s, noise, &st, budget, &ok)
         })
         .collect()
 }
@@ -135,33 +143,49 @@ pub fn diagnose(
             "needs at least one training and one held-out trial",
         ));
     }
-    let base = base_model(&train[0].part);
+    let prior = prior_model(&train[0], opts)?;
+    let prior_mu = [prior.mu_probe, mean_mu_surface(&prior.support)];
     let all: Vec<TrialData> = train.iter().chain(heldout).cloned().collect();
     let noise = Noise::estimate(&all);
     let with_tip = all.iter().any(TrialData::has_tips);
     let last_index = all.iter().map(|t| t.index).max().unwrap_or(0);
-    let s = &opts.settings;
-    progress("nominal");
-    let x0 = vec![base.mu_probe, base.support.mu_surface[0], 0.0, 0.0];
-    let nominal = fit(Effect::Nominal, &base, train, s, &noise, &[x0], opts.nominal_evals);
-    let fits = fit_effects(&base, &nominal, train, &noise, last_index, opts, progress);
-    let nominal = rescue_nominal(nominal, &fits, &base, train, s, &noise, opts.nominal_evals);
+    // The settings' lengths are the paper's peg's: another part gets them scaled to its size,
+    // and the trials' own registration tolerance.
+    let replay = ReplayOptions { base: opts.settings.clone(), registration_tol: None };
+    let s = &settings_for(&replay, &train[0]);
+    let band = opts.floor_factor * (2.0 + if with_tip { 1.0 } else { 0.0 });
+    progress("nominal support");
+    let held = Held { trials: heldout, settings: s, noise: &noise, with_tip };
+    let (nominal, shifted, support_fit) = nominal_base(&prior, train, &held, band, opts);
+    // Each effect is fitted about the nominal fit, and also about the shifted prior when a
+    // free support was kept: the free points may have bent to absorb the very effect (a
+    // friction patch), which the effect can then not undo by a shift.
+    let mut fits = fit_effects(&nominal, prior_mu, train, &noise, last_index, (s, opts), progress);
+    if support_fit.family != "shifted" {
+        let other = fit_effects(&shifted, prior_mu, train, &noise, last_index, (s, opts), progress);
+        for (f, g) in fits.iter_mut().zip(other) {
+            if g.loss < f.loss {
+                *f = g;
+            }
+        }
+    }
+    let nominal = rescue_nominal(nominal, &fits, train, s, &noise, opts.nominal_evals);
     let before = residuals(heldout, &nominal.model, s)?;
     let e0 = Mse::of(&before).normalised(&noise, with_tip);
     let mut scores = vec![score(&nominal, heldout, s, &noise, with_tip)];
     for f in &fits {
         scores.push(score(f, heldout, s, &noise, with_tip));
     }
-    let band = opts.floor_factor * (2.0 + if with_tip { 1.0 } else { 0.0 });
     let (verdict, best, ambiguity) = decide(&scores, &fits, e0, band / opts.floor_factor, opts);
-    let batch = AllTrials { all: &all, base: &base, settings: s, noise: &noise, with_tip };
+    let batch = AllTrials { all: &all, settings: s, noise: &noise, with_tip };
     let adequacy = batch.judge(&nominal, best, e0, band, opts)?;
     let (verdict, best, ambiguity) =
         if adequacy.overrules { (Verdict::None, None, None) } else { (verdict, best, ambiguity) };
     let lead = training_lead(&scores, opts).filter(|_| verdict == Verdict::Unexplained);
     let best = best.cloned().unwrap_or_else(|| nominal.clone());
     let after = residuals(heldout, &best.model, s)?;
-    attach_uncertainty(&best, &base, &mut scores, train, s, &noise);
+    let every: Vec<&Fit> = std::iter::once(&nominal).chain(&fits).collect();
+    attach_uncertainty(&every, &mut scores, train, s, &noise);
     Ok(Diagnosis {
         verdict,
         effect: (verdict == Verdict::Effect).then_some(best.candidate),
@@ -174,10 +198,33 @@ pub fn diagnose(
         floor_band: band,
         ambiguity,
         training_lead: lead,
+        support_fit,
         split: (ids(train), ids(heldout)),
         residuals: (before, after),
         heldout: heldout.to_vec(),
     })
+}
+
+/// The model the nominal fit starts from: `--model`'s (its part must be the trials'), else
+/// the part's default.
+fn prior_model(first: &TrialData, opts: &Options) -> Result<Model, Error> {
+    let Some(m) = &opts.start_model else { return Ok(base_model(&first.part)) };
+    if m.part != first.part {
+        return Err(Error::invalid(
+            "--model",
+            format!(
+                "the model's part ({} vertices, size {:.0} µm) is not the part of trial {} \
+                 ({} vertices, size {:.0} µm); identify the model on trials of this part",
+                m.part.polygon().vertices().len(),
+                m.part.char_length_um(),
+                first.id,
+                first.part.polygon().vertices().len(),
+                first.part.char_length_um()
+            ),
+        ));
+    }
+    m.validate().map_err(|e| Error::invalid("--model", format!("the model is not valid: {e}")))?;
+    Ok(Model { effects: Default::default(), ..m.clone() })
 }
 
 fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bool) -> EffectScore {
@@ -199,28 +246,63 @@ fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bo
     }
 }
 
-/// 1σ of each effect parameter of the winner from the loss's curvature along it (the loss
-/// is a χ², scaled by the reduced χ² so a misfit widens the interval).
+/// 1σ of every parameter of every fit: the marginal standard deviations of the
+/// Gauss–Newton covariance (JᵀJ)⁻¹ at the fit (J the forward-difference Jacobian of the
+/// noise-weighted residual vector, so the loss is a χ²), scaled by the reduced χ² so a misfit
+/// widens them. Correlated parameters widen each other; a direction the trials do not
+/// determine makes JᵀJ singular and its σ infinite (reported as undetermined).
 fn attach_uncertainty(
-    best: &Fit,
-    base: &Model,
+    fits: &[&Fit],
     scores: &mut [EffectScore],
     train: &[TrialData],
     s: &SimSettings,
     noise: &Noise,
 ) {
-    let params = best.candidate.params();
-    let red = (best.loss / best.n as f64).max(1.0);
-    let Some(sc) = scores.iter_mut().find(|sc| sc.candidate == best.candidate) else { return };
-    for i in NOMINAL.len()..params.len() {
-        let h = params[i].step * 0.5;
-        let at = |d: f64| {
-            let mut v = best.values.clone();
-            v[i] += d;
-            loss(train, &best.candidate.apply(base, &v), s, noise).0
-        };
-        let (lm, lp) = (at(-h), at(h));
-        let curv = (lp - 2.0 * best.loss + lm) / (h * h);
-        sc.params[i].2 = if curv > 0.0 { (2.0 * red / curv).sqrt() } else { f64::INFINITY };
+    let sigmas: Vec<Vec<f64>> = fits.par_iter().map(|f| sigmas(f, train, s, noise)).collect();
+    for (f, sig) in fits.iter().zip(sigmas) {
+        if let Some(sc) = scores.iter_mut().find(|sc| sc.candidate == f.candidate) {
+            for (p, e) in sc.params.iter_mut().zip(sig) {
+                p.2 = e;
+            }
+        }
     }
+}
+
+fn sigmas(f: &Fit, train: &[TrialData], s: &SimSettings, noise: &Noise) -> Vec<f64> {
+    let params = f.candidate.params();
+    let n = params.len();
+    let res = |v: &[f64]| residual_vector(train, &f.candidate.apply(&f.base, v), s, noise);
+    let Some(r0) = res(&f.values) else { return vec![f64::INFINITY; n] };
+    let cols: Vec<Option<Vec<f64>>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let h = params[i].step * 0.05;
+            let mut v = f.values.clone();
+            v[i] += h;
+            let r = res(&v)?;
+            (r.len() == r0.len()).then(|| r.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect())
+        })
+        .collect();
+    let Some(j) = cols.into_iter().collect::<Option<Vec<Vec<f64>>>>() else {
+        return vec![f64::INFINITY; n];
+    };
+    // A parameter the fit left at a bound (a patch edge at the plate's edge) has no effect
+    // nearby: it is undetermined and left out of the others' covariance.
+    let live: Vec<usize> = (0..n).filter(|&i| j[i].iter().any(|v| *v != 0.0)).collect();
+    let m = live.len();
+    let jtj: Vec<Vec<f64>> = live
+        .iter()
+        .map(|&a| live.iter().map(|&b| j[a].iter().zip(&j[b]).map(|(x, y)| x * y).sum()).collect())
+        .collect();
+    let red = (f.loss / f.n as f64).max(1.0);
+    let mut out = vec![f64::INFINITY; n];
+    for (k, &i) in live.iter().enumerate() {
+        let e: Vec<f64> = (0..m).map(|q| if q == k { 1.0 } else { 0.0 }).collect();
+        if let Some(x) = mesopush_ident::optim::lm::solve(jtj.clone(), e) {
+            if x[k] > 0.0 && x[k].is_finite() {
+                out[i] = (x[k] * red).sqrt();
+            }
+        }
+    }
+    out
 }

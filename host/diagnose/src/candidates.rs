@@ -52,7 +52,9 @@ const fn p(name: &'static str, lo: f64, hi: f64, step: f64, grid: &'static [f64]
     Param { name, lo, hi, step, grid }
 }
 
-/// Nominal parameters: μ_probe, one surface μ, and a shift of the support triangle.
+/// Nominal parameters about the batch's fitted base model ([`crate::nominal`]): μ_probe, the
+/// surface μ (the mean of the supports', their ratios kept), and a shift of the support
+/// triangle.
 pub const NOMINAL: [Param; 4] = [
     p("mu_probe", 0.05, 1.5, 0.1, &[]),
     p("mu_surface", 0.05, 1.2, 0.05, &[]),
@@ -60,17 +62,26 @@ pub const NOMINAL: [Param; 4] = [
     p("support_dy_um", -400.0, 400.0, 40.0, &[]),
 ];
 
-/// The starting model for a batch's part: the default model for the paper's peg, else a
-/// symmetric support inside the part.
+/// The starting model for a batch's part: the default model for the paper's peg, else the
+/// part's uniform-pressure support (or, where that falls outside the part, a symmetric one).
 pub fn base_model(part: &Part) -> Model {
     let default = Model::default();
     if *part == default.part {
         return default;
     }
-    let (lo, hi) = part.polygon().bounds();
-    let support =
-        SupportDistribution::symmetric(0.25 * (hi.x - lo.x) / 2.0, 0.5 * (hi.y - lo.y) / 2.0, 0.3);
+    let uniform = SupportDistribution::uniform_pressure(part, 0.3);
+    let support = if uniform.validate(part.polygon()).is_ok() {
+        uniform
+    } else {
+        let (lo, hi) = part.polygon().bounds();
+        SupportDistribution::symmetric(0.25 * (hi.x - lo.x) / 2.0, 0.5 * (hi.y - lo.y) / 2.0, 0.3)
+    };
     Model { part: part.clone(), support, ..default }
+}
+
+/// The mean surface friction of a support (the NOMINAL vector's `mu_surface`).
+pub fn mean_mu_surface(s: &SupportDistribution) -> f64 {
+    s.mu_surface.iter().sum::<f64>() / 3.0
 }
 
 impl Effect {
@@ -180,7 +191,8 @@ impl Effect {
     pub fn apply(self, base: &Model, v: &[f64]) -> Model {
         let mut m = base.clone();
         m.mu_probe = v[0];
-        m.support.mu_surface = [v[1]; 3];
+        let mean = mean_mu_surface(&base.support);
+        m.support.mu_surface = base.support.mu_surface.map(|mu| mu * v[1] / mean);
         for pt in &mut m.support.points_um {
             pt[0] += v[2];
             pt[1] += v[3];

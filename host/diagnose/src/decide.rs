@@ -125,7 +125,15 @@ mod tests {
 
     fn fit_of(c: Effect) -> Fit {
         let model = base_model(&Part::default_peg());
-        Fit { candidate: c, values: vec![], model, loss: 1.0, n: 100, evals: 0 }
+        Fit {
+            candidate: c,
+            values: vec![],
+            base: model.clone(),
+            model,
+            loss: 1.0,
+            n: 100,
+            evals: 0,
+        }
     }
 
     fn score_of(c: Effect, bic: f64, heldout_norm: f64) -> EffectScore {

@@ -56,6 +56,8 @@ pub struct Fit {
     pub values: Vec<f64>,
     /// The fitted model.
     pub model: Model,
+    /// The base model the parameter vector applies to ([`Effect::apply`]).
+    pub base: Model,
     /// Training loss (weighted SSE).
     pub loss: f64,
     /// Scalar residuals in the training loss.
@@ -127,7 +129,7 @@ pub fn fit_where(
     let values = clamp(&params, &x);
     let model = candidate.apply(base, &values);
     let (loss, n) = loss(trials, &model, settings, noise);
-    Fit { candidate, values, model, loss, n, evals }
+    Fit { candidate, values, model, base: base.clone(), loss, n, evals }
 }
 
 /// Levenberg–Marquardt ([`mesopush_ident::optim::lm`]) on the noise-weighted residual vector

@@ -24,6 +24,8 @@ pub mod data;
 pub mod decide;
 pub mod error;
 pub mod fit;
+pub mod heldout;
+pub mod nominal;
 pub mod objective;
 pub mod options;
 pub mod predict;

@@ -2,13 +2,19 @@
 //! real batch; tests shrink the budgets).
 
 use super::candidates::Effect;
-use mesopush_sim::SimSettings;
+use mesopush_sim::{Model, SimSettings};
 
 /// Knobs of a diagnosis.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Options {
-    /// Evaluations for the nominal fit. Default 120.
+    /// Evaluations for the nominal fit about the fitted support. Default 120.
     pub nominal_evals: usize,
+    /// Evaluations for the nominal support fit ([`crate::nominal`]: both friction
+    /// coefficients and all three support points free), per family tried. Default 400.
+    pub support_evals: usize,
+    /// The model the nominal fit starts from (`diagnose --model`, e.g. what `identify`
+    /// wrote); None: the part's default ([`crate::candidates::base_model`]).
+    pub start_model: Option<Model>,
     /// Evaluations (start grid included) for each effect fit. Default 80.
     pub effect_evals: usize,
     /// Candidates to try. Default every effect of [`Effect::EFFECTS`].
@@ -33,6 +39,8 @@ impl Default for Options {
     fn default() -> Self {
         Self {
             nominal_evals: 120,
+            support_evals: 400,
+            start_model: None,
             effect_evals: 80,
             candidates: Effect::EFFECTS.to_vec(),
             settings: SimSettings::default(),

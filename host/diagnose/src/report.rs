@@ -98,10 +98,28 @@ pub fn text(d: &Diagnosis) -> String {
     s += &format!("| X,Y MSE (µm²) | {:.3} | {:.3} |\n", b.xy_um2, a.xy_um2);
     s += &format!("| θ MSE (rad²) | {:.3e} | {:.3e} |\n", b.theta_rad2, a.theta_rad2);
     s += &format!("| tip MSE (µm²) | {:.3} | {:.3} |\n", b.tip_um2, a.tip_um2);
-    s += "\nparameters (value ± 1σ):\n";
-    if let Some(sc) = d.scores.iter().find(|s| s.candidate == d.best.candidate) {
+    let sf = &d.support_fit;
+    let tried: Vec<String> = sf.heldout_norm.iter().map(|(f, e)| format!("{f} {e:.1}")).collect();
+    s += &format!(
+        "\nnominal support: {} (held-out error, noise units: {})\n",
+        sf.family,
+        tried.join(", ")
+    );
+    let p = d.nominal.model.support.points_um;
+    s += &format!(
+        "  points [{:.0}, {:.0}] [{:.0}, {:.0}] [{:.0}, {:.0}] µm, μ_surface {:.3?}\n",
+        p[0][0], p[0][1], p[1][0], p[1][1], p[2][0], p[2][1], d.nominal.model.support.mu_surface
+    );
+    for sc in &d.scores {
+        let mark = if sc.candidate == d.best.candidate { " (kept)" } else { "" };
+        s += &format!(
+            "\n{}{mark}: held-out {:.1} noise units, BIC {:.0}\n",
+            sc.candidate.name(),
+            sc.heldout_norm,
+            sc.bic
+        );
         for (n, v, e) in &sc.params {
-            s += &format!("  {n} = {v:.5} ± {e:.2}\n");
+            s += &format!("  {n} = {}\n", pm(*v, *e));
         }
     }
     if let Some(e) = d.nominal_all_norm {
@@ -124,19 +142,30 @@ pub fn text(d: &Diagnosis) -> String {
     s
 }
 
+/// Parameters as `{name: {value, sigma}}`; sigma null when the trials do not determine it.
+fn param_map(params: &[(String, f64, f64)]) -> serde_json::Map<String, Value> {
+    params
+        .iter()
+        .map(|(n, v, e)| {
+            let sigma = if e.is_finite() { json!(e) } else { Value::Null };
+            (n.clone(), json!({"value": v, "sigma": sigma}))
+        })
+        .collect()
+}
+
+/// `v ± σ`, or `v (undetermined)` when the trials do not pin it down.
+fn pm(v: f64, e: f64) -> String {
+    if e.is_finite() { format!("{v:.5} ± {e:.2}") } else { format!("{v:.5} (undetermined)") }
+}
+
 /// The `--json` summary.
 pub fn json(d: &Diagnosis) -> Value {
     let (b, a) = mse_before_after(d);
-    let params: serde_json::Map<String, Value> = d
+    let params = d
         .scores
         .iter()
         .find(|s| s.candidate == d.best.candidate)
-        .map(|sc| {
-            sc.params
-                .iter()
-                .map(|(n, v, e)| (n.clone(), json!({"value": v, "sigma": if e.is_finite() { json!(e) } else { Value::Null }})))
-                .collect()
-        })
+        .map(|sc| param_map(&sc.params))
         .unwrap_or_default();
     json!({
         "verdict": d.verdict,
@@ -162,7 +191,11 @@ pub fn json(d: &Diagnosis) -> Value {
         "heldout": d.split.1,
         "candidates": d.scores.iter().map(|s| json!({
             "name": s.candidate.name(), "bic": s.bic, "heldout_norm": s.heldout_norm,
-            "heldout": s.heldout})).collect::<Vec<_>>(),
+            "heldout": s.heldout, "parameters": param_map(&s.params)})).collect::<Vec<_>>(),
+        "support_fit": d.support_fit,
+        "nominal_model": {"mu_probe": d.nominal.model.mu_probe,
+            "support_points_um": d.nominal.model.support.points_um,
+            "mu_surface": d.nominal.model.support.mu_surface},
         "structure_before": Structure::of(&d.residuals.0),
         "structure_after": Structure::of(&d.residuals.1),
     })

@@ -14,6 +14,7 @@
 //! `mesopush-plot` and `mesopush-protocol` (its `units`, for the trial log's µs). Never on
 //! planning, the rig, diagnosis or batches.
 
+pub mod bootstrap;
 pub mod consistent;
 pub mod data;
 pub mod error;
@@ -46,6 +47,8 @@ pub struct IdentifySettings {
     pub optimize: Option<OptimizeSettings>,
     /// Simulator settings and fixed friction.
     pub score: ScoreSettings,
+    /// Refits on bootstrap resamples of the trials (after the joint fit; none without it).
+    pub bootstrap: bootstrap::BootstrapSettings,
 }
 
 /// Progress callbacks, one per stage (each called once per simulation or evaluation).
@@ -107,5 +110,9 @@ pub fn identify_from(
             sw.ranked(o.starts).into_iter().map(|k| sw.candidate(k)).collect();
         optimize(trials, &starts, o, &settings.score, rng, ticks.optimize)
     });
-    Report::new(trials, sw, opt, settings)
+    let boot = opt.as_ref().zip(settings.optimize.as_ref()).and_then(|(o, os)| {
+        let (b, s) = (&settings.bootstrap, &settings.score);
+        bootstrap::bootstrap(trials, &o.best, os.layout(), b, s, rng, ticks.optimize)
+    });
+    Report::new(trials, sw, opt, boot, settings)
 }

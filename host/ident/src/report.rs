@@ -4,10 +4,11 @@
 //! chosen (the optimiser's when it ran and did better, else the sweep's nominal).
 
 use super::IdentifySettings;
-use super::consistent::{ConsistentSet, consistent_set};
+use super::bootstrap::{Bootstrap, named};
+use super::consistent::{ConsistentSet, consistent_set, effective_count};
 use super::data::IdentTrial;
 use super::joint::Optimized;
-use super::score::{Candidate, Score, score};
+use super::score::{Candidate, Score, residuals, score};
 use super::sweep::Sweep;
 use crate::Error;
 use mesopush_sim::Model;
@@ -68,6 +69,10 @@ pub struct Report {
     pub consistent: ConsistentSet,
     /// Size of the consistent set.
     pub consistent_count: usize,
+    /// Effective number of independent residuals behind the consistent set's threshold.
+    pub consistent_n_effective: f64,
+    /// Refits on bootstrap resamples of the trials (None: no joint fit, or < 3 trials).
+    pub bootstrap: Option<Bootstrap>,
     /// The sweep's simulations.
     #[serde(skip)]
     pub sweep: Sweep,
@@ -85,6 +90,7 @@ impl Report {
         trials: &[IdentTrial],
         sweep: Sweep,
         opt: Option<Optimized>,
+        boot: Option<Bootstrap>,
         settings: &IdentifySettings,
     ) -> Result<Self, Error> {
         let table = trials
@@ -118,8 +124,22 @@ impl Report {
             candidates.extend(o.visited.iter().cloned());
         }
         let n_residuals = 3 * trials.iter().map(|t| t.measured.len()).sum::<usize>();
-        let fit_surface = settings.optimize.as_ref().is_some_and(|o| o.fit_surface);
-        let consistent = consistent_set(&candidates, n_residuals, 7 + usize::from(fit_surface))?;
+        let n_params = settings.optimize.as_ref().map_or(7, |o| o.layout().len());
+        let chosen = match &optimized {
+            Some(o) if o.total_sse_um2 < nominal.total_sse_um2 => &o.candidate,
+            _ => &nominal.candidate,
+        };
+        let n_eff = effective_count(&residual_series(trials, chosen, settings));
+        let mut consistent = consistent_set(&candidates, n_residuals, n_eff, n_params)?;
+        if let Some(b) = &boot {
+            // The refits join the set (what the trials cannot pin down), after its members.
+            for (c, _) in &b.fits {
+                if !consistent.members.iter().any(|m| &m.0 == c) {
+                    let sse = scored(trials, c, settings).total_sse_um2;
+                    consistent.members.push((c.clone(), sse));
+                }
+            }
+        }
         Ok(Self {
             trials: trials.iter().map(|t| t.id.clone()).collect(),
             table,
@@ -136,7 +156,9 @@ impl Report {
             optimizer_evals: opt.as_ref().map_or(0, |o| o.evals),
             chosen_from,
             consistent_count: consistent.members.len(),
+            consistent_n_effective: n_eff,
             consistent,
+            bootstrap: boot,
             sweep,
         })
     }
@@ -214,8 +236,50 @@ impl Report {
             c.mu_range[1],
             c.noise_var_um2.sqrt()
         );
+        s.push_str(&self.uncertainty_text());
         s
     }
+
+    /// Each chosen parameter with its bootstrap ± (1 sd over the refits) beside its range over
+    /// the consistent set.
+    pub fn uncertainty_text(&self) -> String {
+        let mut s = String::new();
+        let members: Vec<Vec<(String, f64)>> =
+            self.consistent.members.iter().map(|m| named(&m.0)).collect();
+        let _ = writeln!(
+            s,
+            "\nparameter            chosen   bootstrap ±  consistent-set range ({} members, n_eff = {:.0} of {})",
+            members.len(),
+            self.consistent_n_effective,
+            self.consistent.n_residuals
+        );
+        for (k, (name, v)) in named(&self.chosen().candidate).into_iter().enumerate() {
+            let sd = self
+                .bootstrap
+                .as_ref()
+                .map_or(String::from("(none)"), |b| format!("{:.4}", b.spread[k].sd));
+            let (lo, hi) = members
+                .iter()
+                .map(|m| m[k].1)
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+            let _ = writeln!(s, "{name:<18} {v:>10.4} {sd:>12}  {lo:.4} .. {hi:.4}");
+        }
+        if self.bootstrap.is_none() {
+            s.push_str(
+                "(no bootstrap: it needs the joint fit (--optimize) and at least three trials)\n",
+            );
+        }
+        s
+    }
+}
+
+/// The chosen candidate's residuals per trial and component (Δx, Δy, L·Δθ series).
+fn residual_series(trials: &[IdentTrial], c: &Candidate, s: &IdentifySettings) -> Vec<Vec<f64>> {
+    trials
+        .iter()
+        .filter_map(|t| residuals(t, c, &s.score))
+        .flat_map(|r| (0..3).map(move |k| r.iter().skip(k).step_by(3).copied().collect()))
+        .collect()
 }
 
 fn mean(v: impl Iterator<Item = f64>) -> f64 {

@@ -65,6 +65,7 @@ fn small_settings(optimize: bool, n_supports: usize) -> IdentifySettings {
         sweep: SweepSettings { mu_step: 0.1, n_supports, ..SweepSettings::default() },
         optimize: optimize.then(|| OptimizeSettings { max_evals: 192, ..Default::default() }),
         score: ScoreSettings::default(),
+        bootstrap: Default::default(),
     }
 }
 
@@ -115,11 +116,12 @@ fn the_consistent_set_is_written_as_a_supports_list_of_valid_supports() {
     assert!(set.members.iter().all(|m| m.1 <= set.threshold_um2));
     let path = dir.path().join("supports.toml");
     set.save(&path).unwrap();
-    let file: mesopush_ident::consistent::SupportsFile =
-        toml::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    assert_eq!(file.supports.len(), set.members.len());
-    for s in &file.supports {
-        s.validate(truth.part.polygon()).unwrap();
+    // Read back as `robustness --supports` reads it: every member with its probe friction.
+    let file = mesopush_sim::support_set::SupportSet::load(&path, &truth.part).unwrap();
+    assert_eq!(file.support.len(), set.members.len());
+    for (s, m) in file.support.iter().zip(&set.members) {
+        assert_eq!(s.mu_probe, Some(m.0.mu_probe));
+        assert_eq!(s.support(), m.0.support);
     }
 }
 

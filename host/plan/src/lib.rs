@@ -59,6 +59,6 @@ pub use robust_search::{RobustReport, RobustSearch, search_robust};
 pub use robust_settings::RobustSettings;
 pub use rrt::{RrtProgress, RrtResult, RrtRun, plan_rrt, plan_rrt_within};
 pub use rrt_settings::RrtSettings;
-pub use sampler::{SupportSet, Uncertainty};
+pub use sampler::Uncertainty;
 pub use skeleton::Skeleton;
 pub use world::UncertainWorld;

@@ -9,7 +9,8 @@ use crate::Error;
 use crate::sampler::{Draw, Uncertainty, draw};
 use mesopush_core::geom::Pose;
 use mesopush_core::stats::{Z95, wilson_interval};
-use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, SupportDistribution, replay};
+use mesopush_sim::support_set::SupportSample;
+use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
 use rand::SeedableRng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -69,7 +70,7 @@ pub fn trial_seed(seed: u64, i: u64) -> u64 {
 pub fn draws(
     model: &Model,
     unc: &Uncertainty,
-    supports: &[SupportDistribution],
+    supports: &[SupportSample],
     n: usize,
     seed: u64,
 ) -> Vec<Draw> {
@@ -82,7 +83,7 @@ pub fn draws(
 pub fn draws_at(
     model: &Model,
     unc: &Uncertainty,
-    supports: &[SupportDistribution],
+    supports: &[SupportSample],
     indices: &[u64],
     seed: u64,
 ) -> Vec<Draw> {
@@ -156,7 +157,7 @@ pub struct MonteCarlo<'a> {
     /// The uncertainty box.
     pub uncertainty: Uncertainty,
     /// Candidate support distributions (e.g. identification's set); empty: perturb.
-    pub supports: &'a [SupportDistribution],
+    pub supports: &'a [SupportSample],
 }
 
 impl MonteCarlo<'_> {

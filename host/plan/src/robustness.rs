@@ -11,7 +11,8 @@ use crate::pushes::pushing_moves;
 use crate::sampler::Uncertainty;
 use crate::shard;
 use mesopush_core::shard::Shard;
-use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, SupportDistribution, replay};
+use mesopush_sim::support_set::SupportSample;
+use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -76,7 +77,7 @@ pub struct RobustnessRun<'a> {
     /// The fixture.
     pub fixture: &'a Fixture,
     /// Candidate supports (empty: the model's, perturbed).
-    pub supports: &'a [SupportDistribution],
+    pub supports: &'a [SupportSample],
     /// The uncertainty box.
     pub uncertainty: Uncertainty,
     /// Trials per plan (and per sweep scale).

@@ -4,10 +4,10 @@
 
 use crate::Error;
 use mesopush_core::geom::Pose;
+use mesopush_sim::support_set::SupportSample;
 use mesopush_sim::{Model, Plan, SupportDistribution};
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
-use std::path::Path;
 
 /// The uncertainty box (half-widths of uniform distributions; plain data).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -118,60 +118,31 @@ fn perturbed_support(
 }
 
 /// Draws one trial's world: start offset, support (a random candidate when `candidates` is
-/// not empty, else perturbed around `model`'s), friction.
+/// not empty, else perturbed around `model`'s), friction. A candidate that carries its probe
+/// friction is drawn as a pair: its μ_probe and surface frictions are used as they are (they
+/// were fitted together with its points); only the wall friction is perturbed.
 pub fn draw(
     model: &Model,
     unc: &Uncertainty,
-    candidates: &[SupportDistribution],
+    candidates: &[SupportSample],
     rng: &mut impl rand::Rng,
 ) -> Draw {
     let offset = [sym(rng, unc.dx_um), sym(rng, unc.dy_um), sym(rng, unc.dtheta_deg)];
-    let (support, support_index) = if candidates.is_empty() {
-        (perturbed_support(model, unc.support_um, rng), None)
+    let (support, support_index, paired_mu) = if candidates.is_empty() {
+        (perturbed_support(model, unc.support_um, rng), None, None)
     } else {
         let i = rng.random_range(0..candidates.len());
-        (candidates[i].clone(), Some(i))
+        (candidates[i].support(), Some(i), candidates[i].mu_probe)
     };
     let mut m = Model { support, ..model.clone() };
-    m.mu_probe = (m.mu_probe + sym(rng, unc.dmu)).clamp(0.0, 2.0);
+    let mu_probe_drawn = (m.mu_probe + sym(rng, unc.dmu)).clamp(0.0, 2.0);
     m.mu_wall = (m.mu_wall + sym(rng, unc.dmu)).clamp(0.0, 2.0);
-    for mu in &mut m.support.mu_surface {
-        *mu = (*mu + sym(rng, unc.dmu)).clamp(0.0, 2.0);
+    let surface_drawn = m.support.mu_surface.map(|mu| (mu + sym(rng, unc.dmu)).clamp(0.0, 2.0));
+    // The draws above are made in every case, so a pair's trial keeps the random stream of
+    // the trials around it.
+    match paired_mu {
+        Some(mu) => m.mu_probe = mu,
+        None => (m.mu_probe, m.support.mu_surface) = (mu_probe_drawn, surface_drawn),
     }
     Draw { offset, support_index, model: m }
-}
-
-/// A list of candidate support distributions on disk (TOML `[[support]]` tables or a JSON
-/// array / `{"support": [...]}`), each `points_um = [[x, y]; 3]` relative to the COM in the
-/// body frame and `mu_surface = [μ1, μ2, μ3]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SupportSet {
-    /// The candidates.
-    pub support: Vec<SupportDistribution>,
-}
-
-impl SupportSet {
-    /// Loads a support set (`.json` as JSON, anything else as TOML) and validates each
-    /// candidate against `model`'s part.
-    pub fn load(path: &Path, model: &Model) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        let parse = |m: String| Error::Parse { path: path.into(), message: m };
-        let set: SupportSet = if path.extension().is_some_and(|e| e == "json") {
-            serde_json::from_str::<Vec<SupportDistribution>>(&text)
-                .map(|support| SupportSet { support })
-                .or_else(|_| serde_json::from_str(&text))
-                .map_err(|e| parse(e.to_string()))?
-        } else {
-            toml::from_str(&text).map_err(|e| parse(e.to_string()))?
-        };
-        if set.support.is_empty() {
-            return Err(parse("the support set is empty".into()));
-        }
-        for (i, s) in set.support.iter().enumerate() {
-            s.validate(model.part.polygon())
-                .map_err(|e| parse(format!("support {}: {e}", i + 1)))?;
-        }
-        Ok(set)
-    }
 }

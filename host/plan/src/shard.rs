@@ -16,7 +16,8 @@ use crate::montecarlo::{MonteCarlo, SampleOutcome, SuccessEstimate};
 use crate::sampler::Uncertainty;
 use mesopush_core::fsx::read_json;
 use mesopush_core::shard::{self, Shard, ShardFile};
-use mesopush_sim::{Fixture, Model, Plan, SupportDistribution};
+use mesopush_sim::support_set::SupportSample;
+use mesopush_sim::{Fixture, Model, Plan};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -37,7 +38,7 @@ pub struct RunKey {
     /// The fixture.
     pub fixture: Fixture,
     /// Candidate supports (empty: the model's, perturbed).
-    pub supports: Vec<SupportDistribution>,
+    pub supports: Vec<SupportSample>,
     /// The uncertainty box.
     pub uncertainty: Uncertainty,
     /// Master seed.

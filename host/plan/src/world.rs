@@ -3,7 +3,8 @@
 //! press start and its candidates' scoring all take one.
 
 use crate::sampler::Uncertainty;
-use mesopush_sim::{Fixture, Model, SimSettings, SupportDistribution};
+use mesopush_sim::support_set::SupportSample;
+use mesopush_sim::{Fixture, Model, SimSettings};
 
 /// The world a robust plan must work in: the nominal one and the uncertainty around it.
 #[derive(Debug, Clone, Copy)]
@@ -17,7 +18,7 @@ pub struct UncertainWorld<'a> {
     /// Uncertainty around the nominal.
     pub uncertainty: Uncertainty,
     /// Candidate supports (empty: perturb the model's).
-    pub supports: &'a [SupportDistribution],
+    pub supports: &'a [SupportSample],
 }
 
 impl<'a> UncertainWorld<'a> {

@@ -18,6 +18,7 @@ pub mod model;
 pub mod pusher;
 pub mod settings;
 pub mod support;
+pub mod support_set;
 
 pub use error::Error;
 pub use fixture::Fixture;

@@ -15,4 +15,8 @@ pub struct StartContext<'a> {
     pub noise: &'a Noise,
     /// Evaluations for each per-trial nominal fit.
     pub evals_per_trial: usize,
+    /// The nominal parameters before the batch's nominal fit (μ_probe, mean surface μ): an
+    /// effect the nominal fit absorbed into friction (an adhesive drag) is also searched
+    /// from there.
+    pub prior_mu: [f64; 2],
 }

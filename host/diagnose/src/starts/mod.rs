@@ -62,7 +62,7 @@ fn signature_starts(
             // The nominal fit absorbs an adhesive drag with surface friction (it ends at its
             // bound); start the adhesion grid from the prior surface friction too.
             let mut prior = nominal.to_vec();
-            prior[1] = ctx.base.support.mu_surface[0];
+            prior[1] = ctx.prior_mu[1];
             let mut s = grid_starts(c, nominal);
             s.extend(grid_starts(c, &prior));
             s

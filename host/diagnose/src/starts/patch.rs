@@ -146,7 +146,7 @@ fn mirror(axis: usize, r: &Rect, plate_mu: f64) -> (f64, Rect) {
 pub fn patch_starts(nominal: &[f64], train: &[TrialData], ctx: &StartContext<'_>) -> Vec<Vec<f64>> {
     let track = support_track(nominal, train, ctx);
     let grids = [edge_grid(track[0].clone()), edge_grid(track[1].clone())];
-    let prior = [ctx.base.mu_probe, ctx.base.support.mu_surface[0], 0.0, 0.0];
+    let prior = [ctx.prior_mu[0], ctx.prior_mu[1], 0.0, 0.0];
     let bent = [prior[0], prior[1], nominal[2], nominal[3]];
     let mut found: Vec<(Vec<f64>, Rect, f64, usize)> = Vec::new();
     for nom in [bent, prior] {

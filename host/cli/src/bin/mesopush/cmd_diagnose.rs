@@ -8,6 +8,7 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_diagnose::confusion::{self, ConfusionSettings};
 use mesopush_diagnose::data::load_split;
+use mesopush_diagnose::heldout::heldout_by_group;
 use mesopush_diagnose::report;
 use mesopush_diagnose::rig_batch::write_rig_batch;
 use mesopush_diagnose::synth::write_batch;
@@ -34,6 +35,10 @@ enum Mode {
     /// Blind diagnoses of synthetic batches of every effect and clean controls: the
     /// confusion matrix and before/after errors.
     Confusion(ConfusionArgs),
+    /// Held-out prediction across start conditions: each group of runs (one start) replayed
+    /// open-loop by the nominal model identified on the other groups, its final-pose error
+    /// next to the group's repeat spread.
+    Heldout(HeldoutArgs),
 }
 
 /// The fit budgets of a diagnosis.
@@ -45,15 +50,26 @@ pub(crate) struct Budgets {
     /// Evaluations per effect fit.
     #[arg(long, default_value_t = 150, value_parser = crate::ranges::at_least_one())]
     effect_evals: usize,
+    /// Evaluations per free-support family of the nominal fit (all three support points
+    /// free; then their friction loads), tried while the held-out error is above the floor.
+    #[arg(long, default_value_t = Options::default().support_evals)]
+    support_evals: usize,
+    /// The model the nominal fit starts from (e.g. what `identify` wrote); default: the
+    /// part's uniform-pressure support (the paper's default model for the paper's peg).
+    #[arg(long)]
+    model: Option<PathBuf>,
 }
 
 impl Budgets {
-    pub(crate) fn options(&self) -> Options {
-        Options {
+    pub(crate) fn options(&self) -> Result<Options> {
+        let start_model = self.model.as_deref().map(mesopush_sim::Model::load).transpose()?;
+        Ok(Options {
             nominal_evals: self.nominal_evals,
             effect_evals: self.effect_evals,
+            support_evals: self.support_evals,
+            start_model,
             ..Options::default()
-        }
+        })
     }
 }
 
@@ -137,7 +153,7 @@ fn write_outputs(d: &Diagnosis, out: &Path) -> Result<()> {
 }
 
 fn run_trials(args: &RunArgs) -> Result<()> {
-    let d = run_dirs(&args.trials, &args.budgets.options(), args.json)?;
+    let d = run_dirs(&args.trials, &args.budgets.options()?, args.json)?;
     write_outputs(&d, &args.out)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report::json(&d))?);
@@ -166,7 +182,74 @@ pub(crate) fn run(args: &DiagnoseArgs) -> Result<()> {
             Ok(())
         }
         Mode::Confusion(a) => run_confusion(a),
+        Mode::Heldout(a) => run_heldout(a),
     }
+}
+
+#[derive(Debug, Args)]
+struct HeldoutArgs {
+    /// Trial directories; a run's group is its directory name without the part after the
+    /// last `__` (the importer writes `<set-up>__<start>__<date>`), or the whole name.
+    #[arg(required = true)]
+    trials: Vec<PathBuf>,
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    budgets: Budgets,
+}
+
+/// A run's group: its directory name up to its last `__`.
+fn group_of(dir: &Path) -> String {
+    let name = dir.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    name.rsplit_once("__").map_or(name.clone(), |(g, _)| g.to_string())
+}
+
+fn run_heldout(args: &HeldoutArgs) -> Result<()> {
+    let mut groups: Vec<(String, Vec<mesopush_diagnose::TrialData>)> = Vec::new();
+    for (i, dir) in args.trials.iter().enumerate() {
+        let t = mesopush_diagnose::TrialData::load(dir, i)?;
+        let g = group_of(dir);
+        match groups.iter_mut().find(|(n, _)| *n == g) {
+            Some((_, runs)) => runs.push(t),
+            None => groups.push((g, vec![t])),
+        }
+    }
+    let opts = args.budgets.options()?;
+    let part = &groups[0].1[0].part;
+    let prior = match &opts.start_model {
+        Some(m) => m.clone(),
+        None => mesopush_diagnose::candidates::base_model(part),
+    };
+    let pb = if args.json { ProgressBar::hidden() } else { ProgressBar::new_spinner() };
+    pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    let rows =
+        heldout_by_group(&groups, &prior, &opts, &|g| pb.set_message(format!("holding out {g}")))?;
+    pb.finish_and_clear();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+        return Ok(());
+    }
+    println!(
+        "| held-out start | runs | family | median final error | repeat spread | target | within |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {} | {:.2} mm, {:.2}° | {:.2} mm, {:.2}° | {:.2} mm, {:.2}° | {} |",
+            r.group,
+            r.runs.len(),
+            r.support_fit.family,
+            r.median_final_error_um / 1000.0,
+            r.median_final_error_deg,
+            r.spread_um / 1000.0,
+            r.spread_deg,
+            r.target[0] / 1000.0,
+            r.target[1],
+            if r.within_target { "yes" } else { "no" }
+        );
+    }
+    Ok(())
 }
 
 // `diagnose confusion`: the experiment's settings, a log line per batch and a progress bar
@@ -206,7 +289,7 @@ fn run_confusion(args: &ConfusionArgs) -> Result<()> {
     settings.first_seed = args.seed;
     settings.n_trials = args.n_trials;
     settings.strokes = args.strokes;
-    settings.options = args.budgets.options();
+    settings.options = args.budgets.options()?;
     let started = std::time::Instant::now();
     let pb = ProgressBar::new((settings.truths.len() * settings.seeds) as u64);
     let report = confusion::run(&settings, &mut |truth, seed, outcome| {

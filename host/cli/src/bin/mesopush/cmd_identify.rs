@@ -9,6 +9,7 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mesopush_core::check::Allowed;
 use mesopush_core::shard::Shard;
+use mesopush_ident::bootstrap::BootstrapSettings;
 use mesopush_ident::figure::{Fig5Trial, draw_fig5};
 use mesopush_ident::shard::{merged_sweep, owned, save, score_shard};
 use mesopush_ident::synth::{DemoPart, DemoSettings, write_demo};
@@ -83,10 +84,22 @@ struct FitArgs {
     /// Let the optimiser fit the (shared) surface friction too.
     #[arg(long, requires = "optimize")]
     fit_surface: bool,
+    /// The richer support family: each of the three supports its own friction load (the
+    /// centre of friction may leave the COM; docs/identification.md).
+    #[arg(long, requires = "optimize")]
+    free_loads: bool,
+    /// Refits on bootstrap resamples of the trials after the joint fit (0: none; needs at
+    /// least three trials): the ± of every parameter and members of the consistent set.
+    #[arg(long, default_value_t = 8, requires = "optimize")]
+    bootstrap: usize,
+    /// Objective evaluations per bootstrap refit.
+    #[arg(long, default_value_t = 100, requires = "optimize")]
+    bootstrap_evals: usize,
     /// Model TOML to write with the chosen parameters.
     #[arg(long, default_value = "runs/identify/model.toml")]
     out: PathBuf,
-    /// Supports TOML to write with the consistent set (`[[supports]]` list).
+    /// Support-set TOML to write with the consistent set (`[[support]]` tables, each with its
+    /// probe friction; `mesopush robustness --supports` reads it).
     #[arg(long, default_value = "runs/identify/supports.toml")]
     consistent_out: PathBuf,
     /// Directory for the Fig. 5 figure (best and worst trial, simulation vs measurement).
@@ -197,8 +210,13 @@ fn settings(sweep: &SweepArgs, fit: Option<&FitArgs>) -> IdentifySettings {
         optimize: fit.filter(|f| f.optimize).map(|f| OptimizeSettings {
             max_evals: f.max_evals,
             fit_surface: f.fit_surface,
+            free_loads: f.free_loads,
             ..OptimizeSettings::default()
         }),
+        bootstrap: BootstrapSettings {
+            resamples: fit.map_or(0, |f| f.bootstrap),
+            evals: fit.map_or(0, |f| f.bootstrap_evals),
+        },
         score: ScoreSettings {
             sim: SimSettings { step_um: sweep.step_um, ..SimSettings::default() },
             ..ScoreSettings::default()
@@ -245,7 +263,8 @@ fn run_identify(sweep: &SweepArgs, fit: &FitArgs, shards: Option<&[PathBuf]>) ->
     let settings = settings(sweep, Some(fit));
     let n_sweep = (trials.len() * settings.sweep.mus()?.len() * settings.sweep.n_supports) as u64;
     let sweep_bar = bar(n_sweep, "sweep", fit.json);
-    let opt_evals = if fit.optimize { fit.max_evals as u64 } else { 0 };
+    let boot_evals = if trials.len() >= 3 { fit.bootstrap * fit.bootstrap_evals } else { 0 };
+    let opt_evals = if fit.optimize { (fit.max_evals + boot_evals) as u64 } else { 0 };
     let opt_bar = bar(opt_evals, "optimize", fit.json || !fit.optimize);
     let ticks = Ticks { sweep: &|| sweep_bar.inc(1), optimize: &|| opt_bar.inc(1) };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(sweep.seed);

@@ -10,8 +10,9 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use mesopush_core::check::Allowed;
 use mesopush_core::shard::Shard;
+use mesopush_plan::Uncertainty;
 use mesopush_plan::robustness::{PlanRow, RobustnessRun, ShardRow, merge_shards};
-use mesopush_plan::{SupportSet, Uncertainty};
+use mesopush_sim::support_set::SupportSet;
 use mesopush_sim::{Fixture, Model};
 use serde_json::json;
 use std::path::PathBuf;
@@ -49,8 +50,10 @@ struct RunArgs {
     /// Model TOML; default: the nominal model.
     #[arg(long)]
     model: Option<PathBuf>,
-    /// Candidate support distributions (TOML `[[support]]` or JSON list; docs/planning.md);
-    /// default: the model's support perturbed by ±`--support-um`.
+    /// Candidate support distributions (TOML `[[support]]` or JSON list; docs/planning.md),
+    /// e.g. what `identify --consistent-out` wrote: a member with `mu_probe` is drawn with
+    /// its own probe and surface friction (a fitted pair); default: the model's support
+    /// perturbed by ±`--support-um`.
     #[arg(long, conflicts_with = "support_um")]
     supports: Option<PathBuf>,
     /// Fixture TOML; default: the reconstructed paper fixture.
@@ -119,7 +122,7 @@ fn estimate(args: &RunArgs) -> Result<()> {
     let model = args.model.as_deref().map_or_else(|| Ok(Model::default()), Model::load)?;
     let fixture = args.fixture.as_deref().map_or_else(|| Ok(Fixture::paper()), Fixture::load)?;
     let supports = match &args.supports {
-        Some(p) => SupportSet::load(p, &model)?.support,
+        Some(p) => SupportSet::load(p, &model.part)?.support,
         None => Vec::new(),
     };
     let run = RobustnessRun {
