@@ -52,7 +52,7 @@ pub(crate) struct Budgets {
     effect_evals: usize,
     /// Evaluations per free-support family of the nominal fit (all three support points
     /// free; then their friction loads), tried while the held-out error is above the floor.
-    #[arg(long, default_value_t = Options::default().support_evals)]
+    #[arg(long, default_value_t = Options::default().support_evals, value_parser = crate::ranges::at_least_one())]
     support_evals: usize,
     /// The model the nominal fit starts from (e.g. what `identify` wrote); default: the
     /// part's uniform-pressure support (the paper's default model for the paper's peg).

@@ -90,10 +90,10 @@ struct FitArgs {
     free_loads: bool,
     /// Refits on bootstrap resamples of the trials after the joint fit (0: none; needs at
     /// least three trials): the ± of every parameter and members of the consistent set.
-    #[arg(long, default_value_t = 8, requires = "optimize")]
+    #[arg(long, default_value_t = 8, requires = "optimize", value_parser = crate::ranges::count(0, 1000))]
     bootstrap: usize,
     /// Objective evaluations per bootstrap refit.
-    #[arg(long, default_value_t = 100, requires = "optimize")]
+    #[arg(long, default_value_t = 100, requires = "optimize", value_parser = crate::ranges::at_least_one())]
     bootstrap_evals: usize,
     /// Model TOML to write with the chosen parameters.
     #[arg(long, default_value = "runs/identify/model.toml")]
