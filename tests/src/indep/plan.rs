@@ -6,11 +6,11 @@
 //! batch runs the same plans.
 
 use super::effects::Effect;
+use super::path::Path;
 use super::physics::simulate;
 use super::rng::Rng;
 use super::world::World;
 use crate::coulomb::{Pose, V2};
-use super::path::Path;
 
 /// Travel speed between strokes, µm/s.
 pub const TRAVEL_UM_S: f64 = 300.0;

@@ -111,13 +111,17 @@ impl World {
             if !(s.load > 0.0) || !inside(o, v(s.at_um)) {
                 return Err(Error::invalid(
                     "supports",
-                    format!("support {i} at {:?} load {}: must be inside, load > 0", s.at_um, s.load),
+                    format!(
+                        "support {i} at {:?} load {}: must be inside, load > 0",
+                        s.at_um, s.load
+                    ),
                 ));
             }
         }
-        let (sum, moment) = self.supports.iter().fold((0.0, V2::default()), |(s, m), p| {
-            (s + p.load, m.add(v(p.at_um).scale(p.load)))
-        });
+        let (sum, moment) = self
+            .supports
+            .iter()
+            .fold((0.0, V2::default()), |(s, m), p| (s + p.load, m.add(v(p.at_um).scale(p.load))));
         if (sum - 1.0).abs() > 1e-9 || moment.len() > 1e-6 {
             return Err(Error::invalid(
                 "supports",
@@ -163,7 +167,8 @@ impl World {
         let hint: Vec<f64> = self.supports.iter().map(|s| s.load).collect();
         let loads = balanced_loads(&points, &hint)?;
         let mut w = self.clone();
-        w.supports = points.iter().zip(loads).map(|(&at_um, load)| Support { at_um, load }).collect();
+        w.supports =
+            points.iter().zip(loads).map(|(&at_um, load)| Support { at_um, load }).collect();
         w.validate()?;
         Ok(w)
     }
@@ -198,10 +203,14 @@ pub fn balanced_loads(points: &[[f64; 2]], hint: &[f64]) -> Result<Vec<f64>, Err
         return Err(Error::invalid("supports", "need ≥ 3 points, one load hint each"));
     }
     // Rows of A: [1], [x], [y]; N = h − Aᵀ (A Aᵀ)⁻¹ (A h − b), b = (1, 0, 0).
-    let rows: [Vec<f64>; 3] =
-        [vec![1.0; points.len()], points.iter().map(|p| p[0]).collect(), points.iter().map(|p| p[1]).collect()];
+    let rows: [Vec<f64>; 3] = [
+        vec![1.0; points.len()],
+        points.iter().map(|p| p[0]).collect(),
+        points.iter().map(|p| p[1]).collect(),
+    ];
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-    let g: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| dot(&rows[i], &rows[j])));
+    let g: [[f64; 3]; 3] =
+        std::array::from_fn(|i| std::array::from_fn(|j| dot(&rows[i], &rows[j])));
     let r = [dot(&rows[0], hint) - 1.0, dot(&rows[1], hint), dot(&rows[2], hint)];
     let lambda = solve3(g, r).ok_or_else(|| Error::invalid("supports", "points are collinear"))?;
     let loads: Vec<f64> = (0..points.len())
