@@ -12,6 +12,7 @@
 //! once for each sliding contact; the mode whose solution satisfies its own inequalities is
 //! taken. Slip directions are regularised below `slip_eps` (a tiny fraction of the step).
 
+use std::ops::{Add, Sub};
 mod vec2;
 pub use vec2::V2;
 

@@ -15,6 +15,7 @@ use mesopush_tests::indep::effects::Effect;
 use mesopush_tests::indep::path::{Path as ProbePath, SETPOINT_PERIOD_S};
 use mesopush_tests::indep::physics::{self, simulate};
 use mesopush_tests::indep::world::World;
+use std::ops::{Add, Sub};
 use std::path::Path;
 
 fn spec(effect: &str, seed: u64, n_trials: usize) -> BatchSpec {

@@ -15,14 +15,6 @@ impl V2 {
     pub const fn new(x: f64, y: f64) -> Self {
         Self { x, y }
     }
-    /// Sum.
-    pub fn add(self, o: V2) -> V2 {
-        V2::new(self.x + o.x, self.y + o.y)
-    }
-    /// Difference.
-    pub fn sub(self, o: V2) -> V2 {
-        V2::new(self.x - o.x, self.y - o.y)
-    }
     /// Scaled by `k`.
     pub fn scale(self, k: f64) -> V2 {
         V2::new(self.x * k, self.y * k)
@@ -43,5 +35,19 @@ impl V2 {
     pub fn rot(self, a: f64) -> V2 {
         let (s, c) = a.sin_cos();
         V2::new(c * self.x - s * self.y, s * self.x + c * self.y)
+    }
+}
+
+impl std::ops::Add for V2 {
+    type Output = V2;
+    fn add(self, o: V2) -> V2 {
+        V2::new(self.x + o.x, self.y + o.y)
+    }
+}
+
+impl std::ops::Sub for V2 {
+    type Output = V2;
+    fn sub(self, o: V2) -> V2 {
+        V2::new(self.x - o.x, self.y - o.y)
     }
 }

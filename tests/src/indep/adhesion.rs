@@ -6,6 +6,7 @@
 //! happens (the bond stretches and breaks).
 
 use crate::coulomb::{self, Part, Pose, Pusher, Settings, V2};
+use std::ops::Add;
 
 /// The bond's parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -90,7 +90,7 @@ impl Effect {
             "latency" => Effect::Latency { delay_s: 0.070 },
             "scale" => Effect::Scale { gain: [0.02, 0.0], origin_um: [0.0, 0.0] },
             "stripe" => Effect::Stripe { x_from_um: 3150.0, x_to_um: 4350.0, factor: 2.5 },
-            "adhesion" => Effect::Adhesion { pull_off_weight: 0.45, range_um: 5.0 },
+            "adhesion" => Effect::Adhesion { pull_off_weight: 0.3, range_um: 5.0 },
             "speed_friction" => Effect::SpeedFriction { gain_per_um_s: 0.002 },
             "drift" => Effect::Drift { per_trial_um: [rng.sign() * 15.0, 0.0] },
             "leadscrew" => Effect::LeadScrew {

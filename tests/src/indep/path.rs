@@ -4,6 +4,7 @@
 //! interpolation.
 
 use crate::coulomb::V2;
+use std::ops::{Add, Sub};
 
 /// The controller's setpoint period, s (50 Hz).
 pub const SETPOINT_PERIOD_S: f64 = 0.02;

@@ -10,6 +10,7 @@ use super::path::{Path, SETPOINT_PERIOD_S};
 use super::stage::Stage;
 use super::world::World;
 use crate::coulomb::{self, Pose, Settings, V2};
+use std::ops::Sub;
 
 /// Largest needle increment, µm.
 pub const STEP_UM: f64 = 0.5;

@@ -11,6 +11,7 @@ use super::physics::simulate;
 use super::rng::Rng;
 use super::world::World;
 use crate::coulomb::{Pose, V2};
+use std::ops::{Add, Sub};
 
 /// Travel speed between strokes, µm/s.
 pub const TRAVEL_UM_S: f64 = 300.0;

@@ -7,6 +7,7 @@
 use super::Error;
 use crate::coulomb::{self, V2};
 use serde_json::{Value, json};
+use std::ops::{Add, Sub};
 
 /// A support point of the part (body frame, origin at the centre of mass).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -108,7 +109,7 @@ impl World {
             return Err(Error::invalid("outline_um", "must be convex and counter-clockwise"));
         }
         for (i, s) in self.supports.iter().enumerate() {
-            if !(s.load > 0.0) || !inside(o, v(s.at_um)) {
+            if s.load <= 0.0 || s.load.is_nan() || !inside(o, v(s.at_um)) {
                 return Err(Error::invalid(
                     "supports",
                     format!(
