@@ -11,6 +11,10 @@
 //! `(fₙ, fₜ)` by Newton's method on the balance and contact equations, once for a sticking and
 //! once for each sliding contact; the mode whose solution satisfies its own inequalities is
 //! taken. Slip directions are regularised below `slip_eps` (a tiny fraction of the step).
+//! [`step`] is one increment (with its contact force), [`drag`] one increment of a disc bonded
+//! to the part (adhesion); a support's μ may grow with its sliding speed
+//! ([`Part::speed_gain_per_um`]). The independent trial generator ([`crate::indep`]) runs on
+//! these.
 
 use std::ops::{Add, Sub};
 mod vec2;
