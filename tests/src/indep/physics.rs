@@ -93,6 +93,37 @@ fn part_at(base: &coulomb::Part, pose: &Pose, effect: &Effect, dt_s: f64) -> cou
     part
 }
 
+/// How often an increment with no consistent contact mode is halved before it is left
+/// unresolved.
+const HALVINGS: u32 = 4;
+
+/// One needle increment `dp` from `tip`; where no contact mode is found, the increment is
+/// halved (its duration too, so velocity strengthening keeps its meaning) and walked in two
+/// pieces, up to `depth` times. Mode `Some(9)`: unresolved, `pose` as far as it got.
+fn advance(
+    part: &coulomb::Part,
+    pusher: &coulomb::Pusher,
+    pose: Pose,
+    tip: V2,
+    dp: V2,
+    warm: &mut [f64; 5],
+    depth: u32,
+) -> coulomb::Step {
+    let r = coulomb::step(part, pusher, pose, tip, dp, &settings(), warm);
+    if r.mode != Some(9) || depth == 0 {
+        return r;
+    }
+    let mut half_part = part.clone();
+    half_part.speed_gain_per_um *= 2.0;
+    let half = dp.scale(0.5);
+    let a = advance(&half_part, pusher, pose, tip, half, warm, depth - 1);
+    if a.mode == Some(9) {
+        return a;
+    }
+    let b = advance(&half_part, pusher, a.pose, tip + half, half, warm, depth - 1);
+    if b.mode.is_none() { coulomb::Step { pose: b.pose, ..a } } else { b }
+}
+
 /// Runs `path` on `world` (already drifted for this trial) from the part at `start`.
 pub fn simulate(world: &World, effect: &Effect, start: Pose, path: &Path) -> Truth {
     let base = world.part();
@@ -123,9 +154,12 @@ pub fn simulate(world: &World, effect: &Effect, start: Pose, path: &Path) -> Tru
             let mut force = 0.0;
             if dp.len() > 1e-12 {
                 let part = part_at(&base, &pose, effect, dt_s);
-                let r = coulomb::step(&part, &pusher, pose, tip, dp, &s, &mut warm);
+                let r = advance(&part, &pusher, pose, tip, dp, &mut warm, HALVINGS);
                 match r.mode {
-                    Some(9) => out.unresolved += 1,
+                    Some(9) => {
+                        out.unresolved += 1;
+                        pose = r.pose;
+                    }
                     Some(_) => {
                         pose = r.pose;
                         force = r.f_n;
