@@ -11,45 +11,14 @@
 //! `(fₙ, fₜ)` by Newton's method on the balance and contact equations, once for a sticking and
 //! once for each sliding contact; the mode whose solution satisfies its own inequalities is
 //! taken. Slip directions are regularised below `slip_eps` (a tiny fraction of the step).
+//! [`step`] is one increment (with its contact force), [`drag`] one increment of a disc bonded
+//! to the part (adhesion); a support's μ may grow with its sliding speed
+//! ([`Part::speed_gain_per_um`]). The independent trial generator ([`crate::indep`]) runs on
+//! these.
 
-/// A plane vector.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct V2 {
-    /// x.
-    pub x: f64,
-    /// y.
-    pub y: f64,
-}
-
-impl V2 {
-    /// (x, y).
-    pub const fn new(x: f64, y: f64) -> Self {
-        Self { x, y }
-    }
-    fn add(self, o: V2) -> V2 {
-        V2::new(self.x + o.x, self.y + o.y)
-    }
-    fn sub(self, o: V2) -> V2 {
-        V2::new(self.x - o.x, self.y - o.y)
-    }
-    fn scale(self, k: f64) -> V2 {
-        V2::new(self.x * k, self.y * k)
-    }
-    fn dot(self, o: V2) -> f64 {
-        self.x * o.x + self.y * o.y
-    }
-    fn cross(self, o: V2) -> f64 {
-        self.x * o.y - self.y * o.x
-    }
-    fn len(self) -> f64 {
-        self.x.hypot(self.y)
-    }
-    /// Rotated by `a` rad.
-    pub fn rot(self, a: f64) -> V2 {
-        let (s, c) = a.sin_cos();
-        V2::new(c * self.x - s * self.y, s * self.x + c * self.y)
-    }
-}
+use std::ops::{Add, Sub};
+mod vec2;
+pub use vec2::V2;
 
 /// The part: outline and supports in its body frame (origin at the centre of mass).
 #[derive(Debug, Clone, PartialEq)]
@@ -62,6 +31,11 @@ pub struct Part {
     pub normal: Vec<f64>,
     /// Friction coefficient at each support.
     pub mu: Vec<f64>,
+    /// Velocity strengthening: a support that moves `δ` in an increment has the friction
+    /// coefficient `μᵢ (1 + speed_gain_per_um · |δ|)` (0: rate-independent Coulomb). A
+    /// caller stepping in time sets it to the gain per µm/s divided by the increment's
+    /// duration.
+    pub speed_gain_per_um: f64,
 }
 
 impl Part {
@@ -73,7 +47,13 @@ impl Part {
         let na = b.cross(c) / area;
         let nb = c.cross(a) / area;
         let nc = a.cross(b) / area;
-        Self { outline, supports: supports.to_vec(), normal: vec![na, nb, nc], mu: vec![mu; 3] }
+        Self {
+            outline,
+            supports: supports.to_vec(),
+            normal: vec![na, nb, nc],
+            mu: vec![mu; 3],
+            speed_gain_per_um: 0.0,
+        }
     }
 }
 
@@ -99,7 +79,7 @@ pub struct Pusher {
 
 /// Contact between the disc at `p` and the part at `pose`: (gap, outward unit normal of the
 /// part at the closest point, closest point).
-fn contact(part: &Part, pose: &Pose, p: V2, radius: f64) -> (f64, V2, V2) {
+pub fn contact(part: &Part, pose: &Pose, p: V2, radius: f64) -> (f64, V2, V2) {
     let world: Vec<V2> =
         part.outline.iter().map(|v| v.rot(pose.theta).add(V2::new(pose.x, pose.y))).collect();
     let n = world.len();
@@ -142,7 +122,8 @@ fn residual(part: &Part, pose: &Pose, c: &Ctx, u: &[f64; 5], mode: i32, eps: f64
     for i in 0..part.supports.len() {
         let r = part.supports[i].rot(pose.theta);
         let v = V2::new(dx - dth * r.y, dy + dth * r.x);
-        let k = part.mu[i] * part.normal[i] / (v.dot(v) + eps * eps).sqrt();
+        let mu = part.mu[i] * (1.0 + part.speed_gain_per_um * v.len());
+        let k = mu * part.normal[i] / (v.dot(v) + eps * eps).sqrt();
         let f = v.scale(-k);
         fx += f.x;
         fy += f.y;
@@ -288,52 +269,112 @@ pub fn push_traced(
     let dp = total.scale(1.0 / n as f64);
     let mut p = from;
     let mut out = Vec::with_capacity(n);
-    let mut last = [dp.x, dp.y, 0.0, 0.1, 0.0];
+    let mut warm = [dp.x, dp.y, 0.0, 0.1, 0.0];
     for _ in 0..n {
-        let (gap, normal, point) = contact(part, &pose, p, pusher.radius);
-        let approach = dp.dot(normal.scale(-1.0));
-        if gap > approach || approach <= 0.0 && gap >= 0.0 {
-            p = p.add(dp);
-            out.push((pose, None));
-            continue;
-        }
-        let c = Ctx {
-            n: normal,
-            t: V2::new(-normal.y, normal.x),
-            point,
-            dp,
-            close: gap.max(-s.step),
-            mu: pusher.mu,
-        };
-        let scale = s.step;
-        let mut chosen = None;
-        let mut chosen_mode = 9;
-        for mode in [0, 1, -1] {
-            let Some(u) = solve_mode(part, &pose, &c, mode, s.slip_eps, scale, last) else {
-                continue;
-            };
-            let (fn_, ft) = (u[3], u[4]);
-            let rc = c.point.sub(V2::new(pose.x, pose.y));
-            let vc = V2::new(u[0] - u[2] * rc.y, u[1] + u[2] * rc.x);
-            let slip = c.dp.sub(vc).dot(c.t);
-            let ok = fn_ >= -1e-12
-                && match mode {
-                    0 => ft.abs() <= pusher.mu * fn_ + 1e-9,
-                    m => slip * f64::from(m) >= -1e-9 * scale,
-                };
-            if ok {
-                chosen = Some(u);
-                chosen_mode = mode;
-                break;
-            }
-        }
-        let u = chosen.unwrap_or([0.0; 5]);
-        if chosen.is_some() {
-            last = u;
-        }
-        pose = Pose { x: pose.x + u[0], y: pose.y + u[1], theta: pose.theta + u[2] };
+        let r = step(part, pusher, pose, p, dp, s, &mut warm);
+        pose = r.pose;
         p = p.add(dp);
-        out.push((pose, Some(chosen_mode)));
+        out.push((pose, r.mode));
     }
     out
+}
+
+/// One increment's outcome.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step {
+    /// The part's pose after the increment.
+    pub pose: Pose,
+    /// `None` free, `Some(0)` stick, `Some(±1)` sliding along ±t, `Some(9)` no consistent
+    /// mode (the part was left where it was).
+    pub mode: Option<i32>,
+    /// Contact force on the part along the inward normal (negative: a pull), part weights.
+    pub f_n: f64,
+    /// Contact force along the tangent `t = (−n.y, n.x)`, part weights.
+    pub f_t: f64,
+    /// The part's outward normal at the contact (before the increment).
+    pub normal: V2,
+    /// The contact point on the part (before the increment).
+    pub point: V2,
+}
+
+fn apply(pose: Pose, u: &[f64; 5]) -> Pose {
+    Pose { x: pose.x + u[0], y: pose.y + u[1], theta: pose.theta + u[2] }
+}
+
+/// One pusher increment `dp` from the disc centre `p`: the part's motion and the contact
+/// force. `warm` carries the last solution between increments (start it at
+/// `[dp.x, dp.y, 0, 0.1, 0]`).
+pub fn step(
+    part: &Part,
+    pusher: &Pusher,
+    pose: Pose,
+    p: V2,
+    dp: V2,
+    s: &Settings,
+    warm: &mut [f64; 5],
+) -> Step {
+    let (gap, normal, point) = contact(part, &pose, p, pusher.radius);
+    let free = Step { pose, mode: None, f_n: 0.0, f_t: 0.0, normal, point };
+    let approach = dp.dot(normal.scale(-1.0));
+    // Leaving a contact closed to rounding (a gap of −1e-9 µm after a push) is free too.
+    if gap > approach || approach <= 0.0 && gap >= -1e-6 * s.step {
+        return free;
+    }
+    let c = Ctx {
+        n: normal,
+        t: V2::new(-normal.y, normal.x),
+        point,
+        dp,
+        close: gap.max(-s.step),
+        mu: pusher.mu,
+    };
+    // The last solution first; where no mode converges from it, cold starts.
+    let cold = |f: f64, t: f64| [dp.x, dp.y, 0.0, f, t];
+    let starts = [*warm, cold(0.1, 0.0), cold(0.3, 0.1), cold(0.3, -0.1)];
+    for (mode, start) in starts.iter().flat_map(|st| [0, 1, -1].map(|m| (m, *st))) {
+        let Some(u) = solve_mode(part, &pose, &c, mode, s.slip_eps, s.step, start) else {
+            continue;
+        };
+        let (fn_, ft) = (u[3], u[4]);
+        let rc = c.point.sub(V2::new(pose.x, pose.y));
+        let vc = V2::new(u[0] - u[2] * rc.y, u[1] + u[2] * rc.x);
+        let slip = c.dp.sub(vc).dot(c.t);
+        let ok = fn_ >= -1e-12
+            && match mode {
+                0 => ft.abs() <= pusher.mu * fn_ + 1e-9,
+                m => slip * f64::from(m) >= -1e-9 * s.step,
+            };
+        if ok {
+            *warm = u;
+            return Step { pose: apply(pose, &u), mode: Some(mode), f_n: fn_, f_t: ft, ..free };
+        }
+    }
+    Step { mode: Some(9), ..free }
+}
+
+/// One increment of a disc at `p` (gap ≥ 0 from the part) bonded to the part: the contact
+/// point follows the disc rigidly, both ways, so that the gap after the increment is
+/// `target_gap`. Returns the motion and the bond's force on the part (`f_n < 0`: a pull),
+/// or `None` when no quasi-static motion exists.
+pub fn drag(
+    part: &Part,
+    pusher: &Pusher,
+    pose: Pose,
+    p: V2,
+    dp: V2,
+    target_gap: f64,
+    s: &Settings,
+) -> Option<Step> {
+    let (gap, normal, point) = contact(part, &pose, p, pusher.radius);
+    let c = Ctx {
+        n: normal,
+        t: V2::new(-normal.y, normal.x),
+        point,
+        dp,
+        close: gap - target_gap,
+        mu: pusher.mu,
+    };
+    let start = [dp.x, dp.y, 0.0, -0.1, 0.0];
+    let u = solve_mode(part, &pose, &c, 0, s.slip_eps, s.step, start)?;
+    Some(Step { pose: apply(pose, &u), mode: Some(0), f_n: u[3], f_t: u[4], normal, point })
 }

@@ -1,4 +1,6 @@
 //! Full-loop tests (plan → flash → execute → camera → track → verdict) live in `tests/`; the
 //! library holds what they share with no mesopush code: [`coulomb`], an independent reference
-//! pusher with exact Coulomb friction.
+//! pusher with exact Coulomb friction, and [`indep`], an independent generator of trial logs
+//! built on it (its own world, plans, effects, camera and writer).
 pub mod coulomb;
+pub mod indep;
