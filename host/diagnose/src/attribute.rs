@@ -160,8 +160,15 @@ pub fn diagnose(
     // Each effect is fitted about the nominal fit, and also about the shifted prior when a
     // free support was kept: the free points may have bent to absorb the very effect (a
     // friction patch), which the effect can then not undo by a shift.
-    let mut fits = fit_effects(&nominal, prior_mu, train, &noise, last_index, (s, opts), progress);
-    if support_fit.family != "shifted" {
+    // A nominal model already at the floor on the held-out trials leaves nothing for an
+    // effect to explain (the verdict is `none` whatever they would fit): none is fitted.
+    let at_floor = support_fit.kept_heldout_norm() <= band;
+    let mut fits = if at_floor {
+        Vec::new()
+    } else {
+        fit_effects(&nominal, prior_mu, train, &noise, last_index, (s, opts), progress)
+    };
+    if !at_floor && support_fit.family != "shifted" {
         let other = fit_effects(&shifted, prior_mu, train, &noise, last_index, (s, opts), progress);
         for (f, g) in fits.iter_mut().zip(other) {
             if g.loss < f.loss {

@@ -158,6 +158,13 @@ impl Held<'_> {
     }
 }
 
+impl SupportFit {
+    /// The held-out error of the family kept, noise units.
+    pub fn kept_heldout_norm(&self) -> f64 {
+        self.heldout_norm.iter().find(|(f, _)| *f == self.family).map_or(f64::INFINITY, |p| p.1)
+    }
+}
+
 /// The batch's base model and its nominal fit, the families nested from the fewest
 /// parameters: the prior support shifted; all three points free; their friction loads too.
 /// The next family is tried only while the held-out error stays above the floor `band`, and

@@ -110,6 +110,9 @@ pub fn text(d: &Diagnosis) -> String {
         "  points [{:.0}, {:.0}] [{:.0}, {:.0}] [{:.0}, {:.0}] µm, μ_surface {:.3?}\n",
         p[0][0], p[0][1], p[1][0], p[1][1], p[2][0], p[2][1], d.nominal.model.support.mu_surface
     );
+    if d.scores.len() == 1 {
+        s += "(no effect fitted: the nominal model is at the measurement floor on the held-out trials)\n";
+    }
     for sc in &d.scores {
         let mark = if sc.candidate == d.best.candidate { " (kept)" } else { "" };
         s += &format!(
