@@ -6,8 +6,8 @@
 //! `run` / `rig`.
 
 use crate::Error;
-use mesopush_protocol::flash::{FlashHeader, PlanStep, image_chunks};
 use mesopush_core::geom::Vec2;
+use mesopush_protocol::flash::{FlashHeader, PlanStep, image_chunks};
 use mesopush_protocol::host::{
     CommandRejectReason, ExecState, ExecStatus, ExecToHost, Hello, HostToExec, MotionEventKind,
     StagePoint, TrialEventKind,
@@ -62,8 +62,11 @@ pub enum SessionEnd {
         /// Steps in it.
         step_count: u32,
     },
-    /// The executor refused something; the text says what and why.
+    /// The executor refused the upload or the handshake; the text says what and why.
     Refused(String),
+    /// The executor refused a command (arm, start, goto, ...); its `Display` says why and
+    /// what to do.
+    Rejected(CommandRejectReason),
     /// The trial ended.
     Trial(TrialEventKind),
     /// The executor's status (answer to `Status` and `Stop`).
@@ -132,8 +135,8 @@ pub fn plan_start(plan: &Plan, offset_um: Vec2) -> Result<StagePoint, Error> {
 /// The plan's flash image and its id (the image's CRC: the same plan, the same id).
 pub fn plan_image(plan: &Plan) -> Result<(u32, Vec<u8>), Error> {
     let image: Vec<u8> = plan_steps(plan)?.iter().flat_map(|s| s.to_image_bytes()).collect();
-    let header =
-        FlashHeader::for_image(0, &image).map_err(|e| Error::invalid("plan image", e.to_string()))?;
+    let header = FlashHeader::for_image(0, &image)
+        .map_err(|e| Error::invalid("plan image", e.to_string()))?;
     Ok((header.image_crc32.max(1), image))
 }
 
@@ -333,7 +336,7 @@ impl HostSession {
                 self.next_action_us = now_us + ARM_RETRY_US;
             }
             (Phase::Arming | Phase::Starting | Phase::Command, ExecToHost::CommandRejected(r)) => {
-                self.finish(SessionEnd::Refused(format!("command refused: {r}")))
+                self.finish(SessionEnd::Rejected(*r))
             }
             (Phase::Command, ExecToHost::Status(s)) => self.finish(SessionEnd::Status(*s)),
             (Phase::Command | Phase::Moving, ExecToHost::Motion(m)) => match m.kind {
