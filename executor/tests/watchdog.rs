@@ -7,7 +7,7 @@ mod common;
 use common::{Rig, square_plan};
 use mesopush_executor::{ExecutorConfig, Input};
 use mesopush_protocol::ctrl::FaultCode;
-use mesopush_protocol::host::{ExecState, HostToExec, TrialEventKind, TrialFault};
+use mesopush_protocol::host::{ExecState, HostToExec, StagePoint, TrialEventKind, TrialFault};
 
 fn running(config: ExecutorConfig) -> Rig {
     let mut rig = Rig::new(config);
@@ -110,8 +110,11 @@ fn controller_fault_report_faults_the_trial() {
     );
     assert!(!rig.ctrl.faulted, "ClearFault sent");
     rig.run_for(20_000);
-    rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
-    assert_eq!(rig.exec.state(), ExecState::Armed);
+    // The probe stopped mid-plan: state where it is (the start check is `rig_commands`').
+    let p = rig.exec.latest_position().expect("a position");
+    let here = StagePoint { x_nm: p.x_nm, y_nm: p.y_nm };
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: here });
+    assert_eq!(rig.exec.state(), ExecState::Armed, "{reply:?}");
 }
 
 #[test]
