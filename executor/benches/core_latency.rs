@@ -76,7 +76,9 @@ fn trial(rate_hz: u32, steps: usize) -> (Vec<u64>, u32, f64) {
             t.call(now_us, Input::Host(&HostToExec::Heartbeat { host_time_us: now_us }));
         }
         match i {
-            800 => t.call(now_us, Input::Host(&HostToExec::Arm { plan_id: 5 })),
+            800 => {
+                t.call(now_us, Input::Host(&HostToExec::Arm { plan_id: 5, start: common::START }))
+            }
             840 => t.call(now_us, Input::Host(&HostToExec::Start { plan_id: 5 })),
             _ => {}
         }

@@ -71,6 +71,19 @@ pub struct ExecutorConfig {
     pub sync_samples_to_arm: u8,
     /// Clock sync older than this (no good sample since) is lost, µs. Default 1 s.
     pub sync_max_age_us: u64,
+    /// Arming is refused when the probe's reported position is farther than this from the
+    /// plan's stated start (the host's plan start in stage coordinates), nm. Default 5 µm:
+    /// a goto ends on its target to the encoder's resolution (0.1 µm), while a probe left
+    /// where the last trial ended is typically millimetres away.
+    pub start_tolerance_nm: u32,
+    /// Speed of a goto or home move, nm/s. Default 200 µm/s (a 10 mm move takes 50 s): slow
+    /// enough that the start from rest, realised over one setpoint period, stays within
+    /// `max_accel_nm_s2` at every rate up to 1 kHz; must not exceed `max_speed_nm_s`.
+    pub goto_speed_nm_s: u32,
+    /// Where `home` moves the probe, stage nm: a park position, not an encoder-referencing
+    /// run (the stage's encoders are absolute; referencing them is the controller's job).
+    /// Default the workspace's centre (5 mm, 5 mm).
+    pub home_nm: (i32, i32),
 }
 
 impl ExecutorConfig {
@@ -95,6 +108,9 @@ impl ExecutorConfig {
         sync_max_rtt_us: 5_000,
         sync_samples_to_arm: 4,
         sync_max_age_us: 1_000_000,
+        start_tolerance_nm: 5_000,
+        goto_speed_nm_s: 200_000,
+        home_nm: (5_000_000, 5_000_000),
     };
 
     /// Setpoint period, µs (the rate clamped to 1..=1000 Hz).
@@ -123,6 +139,16 @@ impl ExecutorConfig {
         }
         if self.sync_samples_to_arm == 0 {
             return bad("sync_samples_to_arm");
+        }
+        let goto_accel = u64::from(self.goto_speed_nm_s) * u64::from(self.setpoint_rate_hz);
+        if self.goto_speed_nm_s == 0
+            || self.goto_speed_nm_s > self.max_speed_nm_s
+            || goto_accel > self.max_accel_nm_s2
+        {
+            return bad("goto_speed_nm_s");
+        }
+        if !w.contains(i64::from(self.home_nm.0), i64::from(self.home_nm.1)) {
+            return bad("home_nm");
         }
         Ok(())
     }

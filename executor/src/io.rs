@@ -10,7 +10,7 @@ use crate::error::StoreError;
 use crate::safety::SafetyViolation;
 use mesopush_protocol::ctrl::CtrlToExec;
 use mesopush_protocol::flash::FlashRejectReason;
-use mesopush_protocol::host::TrialEvent;
+use mesopush_protocol::host::{MotionEvent, TrialEvent};
 use mesopush_protocol::{ExecToCtrl, ExecToHost, HostToExec};
 
 /// One input to [`crate::Executor::handle`].
@@ -67,6 +67,8 @@ pub enum LogEvent {
     },
     /// A trial event (also sent to the host).
     Trial(TrialEvent),
+    /// A goto or home event (also sent to the host).
+    Motion(MotionEvent),
     /// A camera frame was stamped (also sent to the host).
     Frame(StampedFrame),
 }
@@ -88,3 +90,41 @@ pub type Outputs<const N: usize> = heapless::Vec<Output, N>;
 /// Free output slots [`crate::Executor::handle`] needs besides streamed segments; a buffer
 /// must hold at least this many more than the look-ahead queue.
 pub const MIN_FREE_OUTPUTS: usize = 8;
+
+impl core::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Image(reason) => write!(f, "{reason}"),
+            Self::Safety(violation) => write!(f, "the plan is unsafe: {violation}"),
+            Self::Store(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl core::fmt::Display for LogEvent {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        use mesopush_protocol::host::TrialEventKind as K;
+        match self {
+            Self::PlanAccepted { plan_id, step_count } => {
+                write!(f, "plan {plan_id:08x} accepted: {step_count} steps")
+            }
+            Self::PlanRefused { plan_id, refusal } => {
+                write!(f, "plan {plan_id:08x} refused: {refusal}")
+            }
+            Self::ArmRefused { plan_id, violation } => {
+                write!(f, "arming plan {plan_id:08x} refused: {violation}")
+            }
+            Self::Trial(t) => {
+                write!(f, "trial of plan {:08x} at step {}: ", t.plan_id, t.step_index)?;
+                match t.kind {
+                    K::Started => f.write_str("started"),
+                    K::Done => f.write_str("done"),
+                    K::Aborted => f.write_str("aborted"),
+                    K::Faulted(fault) => write!(f, "faulted: {fault}"),
+                }
+            }
+            Self::Motion(m) => write!(f, "goto: {}", m.kind),
+            Self::Frame(s) => write!(f, "frame {} stamped", s.stamp.frame_seq),
+        }
+    }
+}

@@ -20,6 +20,7 @@
 
 mod ctrl;
 mod host;
+mod motion;
 
 use crate::camera::FrameStamper;
 use crate::config::ExecutorConfig;
@@ -30,7 +31,10 @@ use crate::store::{PlanStore, load_plan};
 use crate::stream::{StreamPoll, Streamer};
 use crate::sync::ClockSync;
 use mesopush_protocol::ctrl::{CtrlStatus, PositionReport};
-use mesopush_protocol::host::{ExecState, ExecStatus, TrialEvent, TrialEventKind, TrialFault};
+use mesopush_protocol::host::{
+    ExecState, ExecStatus, MotionEvent, MotionEventKind, StagePoint, TrialEvent, TrialEventKind,
+    TrialFault,
+};
 use mesopush_protocol::{ExecToCtrl, ExecToHost};
 
 /// Position reports kept for stamping frames (at the controller's 100 Hz, 160 ms: a frame
@@ -47,6 +51,8 @@ pub struct Executor<S, const CAP: usize, const LA: usize> {
     state_before_flash: ExecState,
     hello_ok: bool,
     plan: Option<FlashedPlan<CAP>>,
+    /// The one-step plan of a goto or home in progress (state `Moving`).
+    goto: Option<FlashedPlan<{ motion::GOTO_IMAGE_LEN }>>,
     flash: crate::flash::FlashSession<CAP>,
     sync: ClockSync,
     stream: Option<Streamer<LA>>,
@@ -86,6 +92,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             state_before_flash: state,
             hello_ok: false,
             plan,
+            goto: None,
             flash: crate::flash::FlashSession::new(),
             sync: ClockSync::new(),
             stream: None,
@@ -153,6 +160,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
     pub fn status(&self, now_us: u64) -> ExecStatus {
         let step_count = self.plan.as_ref().map_or(0, |p| p.step_count());
         let step_index = match (&self.stream, self.state) {
+            (_, ExecState::Moving) => 0,
             (Some(s), _) => s.step_index(),
             (None, ExecState::Done) => step_count,
             _ => 0,
@@ -164,18 +172,30 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             step_count,
             step_index,
             last_fault: self.last_fault,
+            probe: self.latest_position().map(|p| StagePoint { x_nm: p.x_nm, y_nm: p.y_nm }),
+            ctrl_state: self.ctrl_status.map(|s| s.state),
         }
+    }
+
+    /// Whether the probe is being moved (a trial armed or running, or a goto).
+    fn in_motion(&self) -> bool {
+        matches!(self.state, ExecState::Armed | ExecState::Running | ExecState::Moving)
+    }
+
+    /// Whether moves are streaming (a trial running or a goto).
+    fn streaming(&self) -> bool {
+        matches!(self.state, ExecState::Running | ExecState::Moving)
     }
 
     /// When [`Self::handle`] must next be called (with [`Input::Tick`]) if nothing arrives,
     /// µs in the executor's clock.
     pub fn next_deadline_us(&self) -> u64 {
         let mut t = self.next_heartbeat_us.min(self.sync_deadline_us());
-        if matches!(self.state, ExecState::Armed | ExecState::Running) {
+        if self.in_motion() {
             let heard = self.ctrl_last_heard_us.unwrap_or(self.last_now_us);
             t = t.min(heard + self.config.ctrl_silence_us + 1);
         }
-        if self.state == ExecState::Running {
+        if self.streaming() {
             let heard = self.host_last_heard_us.unwrap_or(self.last_now_us);
             t = t.min(heard + self.config.host_silence_us + 1);
             t = t.min(self.last_now_us + self.config.setpoint_period_us() / 4);
@@ -225,13 +245,13 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             Input::Frame(frame) => self.on_frame(now_us, &frame, out),
             Input::HostLinkDown => {
                 let last_heard_exec_time_us = self.host_last_heard_us.unwrap_or(0);
-                if self.state == ExecState::Running {
+                if self.streaming() {
                     self.fault(now_us, TrialFault::HostLinkLost { last_heard_exec_time_us }, out);
                 }
             }
             Input::CtrlLinkDown => {
                 let last_heard_exec_time_us = self.ctrl_last_heard_us.unwrap_or(0);
-                if matches!(self.state, ExecState::Armed | ExecState::Running) {
+                if self.in_motion() {
                     let fault = TrialFault::ControllerSilent { last_heard_exec_time_us };
                     self.fault(now_us, fault, out);
                 }
@@ -251,13 +271,13 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             push(out, Output::Ctrl(ExecToCtrl::ClockSyncQuery { query_id }));
         }
         self.watchdog(now_us, out);
-        if self.state == ExecState::Running {
+        if self.streaming() {
             self.stream(now_us, out);
         }
     }
 
     fn watchdog<const N: usize>(&mut self, now_us: u64, out: &mut Outputs<N>) {
-        if !matches!(self.state, ExecState::Armed | ExecState::Running) {
+        if !self.in_motion() {
             return;
         }
         let ctrl_heard = self.ctrl_last_heard_us.unwrap_or(0);
@@ -265,7 +285,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             let fault = TrialFault::ControllerSilent { last_heard_exec_time_us: ctrl_heard };
             return self.fault(now_us, fault, out);
         }
-        if self.state != ExecState::Running {
+        if !self.streaming() {
             return;
         }
         let host_heard = self.host_last_heard_us.unwrap_or(0);
@@ -279,15 +299,18 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
     }
 
     fn stream<const N: usize>(&mut self, now_us: u64, out: &mut Outputs<N>) {
-        let (Some(stream), Some(plan)) = (self.stream.as_mut(), self.plan.as_ref()) else {
-            return;
-        };
         let Some(now_ctrl_us) = self.sync.to_ctrl_us(now_us) else {
             return self.fault(now_us, TrialFault::ClockSyncLost, out);
         };
         // Keep MIN_FREE_OUTPUTS - 1 slots for a fault's outputs.
         while N - out.len() >= MIN_FREE_OUTPUTS {
-            match stream.poll(plan, &self.config, now_ctrl_us) {
+            let Some(stream) = self.stream.as_mut() else { return };
+            let polled = match (self.state, &self.goto, &self.plan) {
+                (ExecState::Moving, Some(goto), _) => stream.poll(goto, &self.config, now_ctrl_us),
+                (ExecState::Running, _, Some(plan)) => stream.poll(plan, &self.config, now_ctrl_us),
+                _ => return,
+            };
+            match polled {
                 StreamPoll::Send(segment) => {
                     push(out, Output::Ctrl(ExecToCtrl::Move(segment)));
                     stream.sent();
@@ -298,6 +321,9 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
                     let fault = TrialFault::StreamUnderrun { step_index };
                     return self.fault(now_us, fault, out);
                 }
+                StreamPoll::Finished if self.state == ExecState::Moving => {
+                    return self.motion_arrived(now_us, out);
+                }
                 StreamPoll::Finished => {
                     self.stream = None;
                     self.state = ExecState::Done;
@@ -307,13 +333,31 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
         }
     }
 
-    /// Stops the trial: `Stop` to the controller, state `Faulted`, the fault recorded.
+    /// Stops the trial (or goto): `Stop` to the controller, state `Faulted`, the fault
+    /// recorded.
     fn fault<const N: usize>(&mut self, now_us: u64, fault: TrialFault, out: &mut Outputs<N>) {
         push(out, Output::Ctrl(ExecToCtrl::Stop));
+        let moving = self.state == ExecState::Moving;
         self.state = ExecState::Faulted;
         self.last_fault = Some(fault);
-        self.trial_event(now_us, TrialEventKind::Faulted(fault), out);
+        if moving {
+            self.goto = None;
+            self.motion_event(now_us, MotionEventKind::Faulted(fault), out);
+        } else {
+            self.trial_event(now_us, TrialEventKind::Faulted(fault), out);
+        }
         self.stream = None;
+    }
+
+    fn motion_event<const N: usize>(
+        &mut self,
+        now_us: u64,
+        kind: MotionEventKind,
+        out: &mut Outputs<N>,
+    ) {
+        let event = MotionEvent { exec_time_us: now_us, kind };
+        push(out, Output::Host(ExecToHost::Motion(event)));
+        push(out, Output::Log(LogEvent::Motion(event)));
     }
 
     fn trial_event<const N: usize>(

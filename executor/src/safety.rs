@@ -151,3 +151,45 @@ fn check_accel(
     }
     Ok(())
 }
+
+impl core::fmt::Display for SafetyViolation {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        use mesopush_protocol::describe::Um;
+        match *self {
+            Self::ZeroSpeed { step_index } => write!(f, "step {step_index} has speed 0"),
+            Self::ZeroLength { step_index } => {
+                write!(f, "step {step_index} moves by less than 1 nm")
+            }
+            Self::SpeedTooHigh { step_index, speed_nm_s, limit_nm_s } => write!(
+                f,
+                "step {step_index} moves at {}/s, above the limit {}/s",
+                Um(i64::from(speed_nm_s)),
+                Um(i64::from(limit_nm_s))
+            ),
+            Self::AccelTooHigh { step_index, accel_nm_s2, limit_nm_s2 } => write!(
+                f,
+                "entering step {step_index} needs {}/s², above the limit {}/s²",
+                Um(i64::try_from(accel_nm_s2).unwrap_or(i64::MAX)),
+                Um(i64::try_from(limit_nm_s2).unwrap_or(i64::MAX))
+            ),
+            Self::TooWide { extent_x_nm, extent_y_nm } => write!(
+                f,
+                "the plan spans {} × {}, more than the workspace",
+                Um(i64::try_from(extent_x_nm).unwrap_or(i64::MAX)),
+                Um(i64::try_from(extent_y_nm).unwrap_or(i64::MAX))
+            ),
+            Self::LeavesWorkspace { step_index: None, x_nm, y_nm } => write!(
+                f,
+                "the probe at stage ({}, {}) is outside the workspace",
+                Um(x_nm),
+                Um(y_nm)
+            ),
+            Self::LeavesWorkspace { step_index: Some(i), x_nm, y_nm } => write!(
+                f,
+                "step {i} ends at stage ({}, {}), outside the workspace",
+                Um(x_nm),
+                Um(y_nm)
+            ),
+        }
+    }
+}

@@ -174,6 +174,13 @@ impl<const LA: usize> Streamer<LA> {
         self.ctrl_capacity = capacity;
         let Some(done) = last_done_segment_id else { return };
         let done_rel = done.wrapping_sub(self.first_segment_id);
+        if u64::from(done_rel) >= self.segment_count {
+            // A segment of an earlier stream (a trial or goto stopped before its end): none
+            // of this one is done yet. Taken as this stream's, it retired every segment in
+            // flight at once, so a run after an abort was reported done before the
+            // controller had executed it.
+            return;
+        }
         while let Some((front, _, _)) = self.inflight.front() {
             let rel = front.segment_id.wrapping_sub(self.first_segment_id);
             if rel > done_rel {

@@ -8,7 +8,9 @@ mod common;
 use common::{CAP, Exec, OUT, ScriptedCtrl, image, square_plan};
 use mesopush_executor::{CameraFrame, ExecutorConfig, Input, MemStore, Output, Outputs};
 use mesopush_protocol::flash::{FlashHeader, image_chunks};
-use mesopush_protocol::host::{ExecState, ExecToHost, Hello, HostToExec, TrialEventKind};
+use mesopush_protocol::host::{
+    ExecState, ExecToHost, Hello, HostToExec, MotionEventKind, StagePoint, TrialEventKind,
+};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
@@ -59,6 +61,7 @@ struct Tally {
     done: bool,
     frames: u32,
     moves: u32,
+    arrived: bool,
 }
 
 fn deliver(out: &mut Outputs<OUT>, now_us: u64, ctrl: &mut ScriptedCtrl, tally: &mut Tally) {
@@ -76,6 +79,9 @@ fn deliver(out: &mut Outputs<OUT>, now_us: u64, ctrl: &mut ScriptedCtrl, tally: 
                 tally.done = true
             }
             Output::Host(ExecToHost::Frame(_)) => tally.frames += 1,
+            Output::Host(ExecToHost::Motion(m)) => {
+                tally.arrived |= matches!(m.kind, MotionEventKind::Arrived { .. })
+            }
             Output::Host(_) | Output::Log(_) => {}
         }
     }
@@ -116,8 +122,13 @@ fn run_trial(exec: &mut Exec, ctrl: &mut ScriptedCtrl, header: FlashHeader, img:
             exec.handle(now_us, Input::Host(&beat), &mut out).expect("room");
         }
         let cmd = match i {
-            200 => Some(HostToExec::Arm { plan_id: header.plan_id }),
+            200 => Some(HostToExec::Arm { plan_id: header.plan_id, start: common::START }),
             210 => Some(HostToExec::Start { plan_id: header.plan_id }),
+            // Between trials: a goto 100 µm away, then a stop.
+            2_800 => {
+                Some(HostToExec::Goto { target: StagePoint { x_nm: 1_100_000, y_nm: 1_000_000 } })
+            }
+            3_600 => Some(HostToExec::Stop),
             _ => None,
         };
         if let Some(cmd) = cmd {
@@ -130,7 +141,7 @@ fn run_trial(exec: &mut Exec, ctrl: &mut ScriptedCtrl, header: FlashHeader, img:
 }
 
 #[test]
-fn a_full_trial_allocates_nothing_after_start_up() {
+fn a_full_trial_and_a_goto_allocate_nothing_after_start_up() {
     // Start-up (may allocate): plan image, executor, controller.
     let steps = square_plan(16);
     let img = image(&steps);
@@ -144,11 +155,13 @@ fn a_full_trial_allocates_nothing_after_start_up() {
     let allocations = allocations();
 
     assert!(tally.accepted && tally.armed && tally.done, "trial incomplete");
-    // 16 steps × 20 µm at 140 µm/s = 2.2857 s → 229 setpoints at 100 Hz.
-    assert_eq!(tally.moves, 229);
-    assert_eq!(ctrl.received.len(), 229);
+    assert!(tally.arrived, "goto incomplete");
+    // 16 steps × 20 µm at 140 µm/s = 2.2857 s → 229 setpoints at 100 Hz; the goto's 100 µm
+    // at 200 µm/s → 50 more.
+    assert_eq!(tally.moves, 229 + 50);
+    assert_eq!(ctrl.received.len(), 229 + 50);
     assert!(tally.frames >= 100);
-    assert_eq!(exec.state(), ExecState::Done);
+    assert_eq!(exec.state(), ExecState::PlanFlashed);
     println!(
         "allocations during the trial: {allocations} (moves {}, frames {})",
         tally.moves, tally.frames

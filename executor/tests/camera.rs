@@ -25,7 +25,7 @@ fn frames_carry_the_probe_position_at_exposure() {
     let step = mesopush_protocol::flash::PlanStep { dx_nm: 100_000, dy_nm: 0, speed_nm_s: 140_000 };
     rig.flash_steps(7, &[step]);
     rig.run_for(200_000);
-    rig.host(HostToExec::Arm { plan_id: 7 });
+    rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
     rig.host(HostToExec::Start { plan_id: 7 });
     let mut seq = 0;
     while rig.exec.state() == ExecState::Running {
@@ -88,7 +88,7 @@ fn a_plan_of_square_moves_is_unaffected_by_frames() {
     rig.hello();
     rig.flash_steps(7, &square_plan(4));
     rig.run_for(200_000);
-    rig.host(HostToExec::Arm { plan_id: 7 });
+    rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
     rig.host(HostToExec::Start { plan_id: 7 });
     for seq in 0..40 {
         rig.run_for(33_333);

@@ -29,7 +29,7 @@ fn assert_old_plan_intact(rig: &mut Rig) {
     let plan = rig.exec.plan().expect("plan kept");
     assert_eq!((plan.plan_id(), plan.step_count()), (7, 2));
     assert_eq!(plan.image(), &image(&square_plan(2))[..]);
-    let reply = rig.host(HostToExec::Arm { plan_id: 7 });
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
     assert!(
         matches!(reply[..], [ExecToHost::Status(s)] if s.state == ExecState::Armed),
         "{reply:?}"
@@ -178,7 +178,7 @@ fn plans_wider_than_the_workspace_or_leaving_it_are_refused() {
     let mut rig = with_plan();
     let left = [PlanStep { dx_nm: -1_000_000, dy_nm: 0, speed_nm_s: 500_000 }; 2];
     assert_eq!(rig.flash_steps(8, &left), ExecToHost::FlashAccepted { plan_id: 8, step_count: 2 });
-    let reply = rig.host(HostToExec::Arm { plan_id: 8 });
+    let reply = rig.host(HostToExec::Arm { plan_id: 8, start: common::START });
     let reason = CommandRejectReason::Unsafe { step_index: Some(1), limit: SafetyLimit::Workspace };
     assert_eq!(reply, vec![ExecToHost::CommandRejected(reason)]);
     assert_eq!(rig.exec.state(), ExecState::PlanFlashed);

@@ -8,7 +8,7 @@ use mesopush_executor::{ExecutorConfig, Input, LogEvent};
 use mesopush_protocol::ExecToCtrl;
 use mesopush_protocol::flash::{FlashRejectReason, PlanStep};
 use mesopush_protocol::host::{
-    CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, TrialEventKind,
+    CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, StagePoint, TrialEventKind,
 };
 
 fn wrong(state: ExecState) -> Vec<ExecToHost> {
@@ -28,7 +28,7 @@ fn flashed(n: usize) -> Rig {
 
 fn armed(n: usize) -> Rig {
     let mut rig = flashed(n);
-    let reply = rig.host(HostToExec::Arm { plan_id: 7 });
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
     assert!(
         matches!(reply[..], [ExecToHost::Status(s)] if s.state == ExecState::Armed),
         "{reply:?}"
@@ -73,7 +73,7 @@ fn commands_before_a_compatible_hello_are_refused() {
     let mut rig = Rig::new(ExecutorConfig::DEFAULT);
     let incompatible = vec![ExecToHost::CommandRejected(CommandRejectReason::Incompatible)];
     assert_eq!(rig.host(HostToExec::StatusQuery), incompatible);
-    assert_eq!(rig.host(HostToExec::Arm { plan_id: 1 }), incompatible);
+    assert_eq!(rig.host(HostToExec::Arm { plan_id: 1, start: common::START }), incompatible);
     let old = Hello { protocol_version: 1, ..Hello::CURRENT };
     let reply = rig.host(HostToExec::Hello(old));
     assert_eq!(reply, vec![ExecToHost::HelloReply { hello: Hello::CURRENT, accepted: false }]);
@@ -86,7 +86,10 @@ fn commands_before_a_compatible_hello_are_refused() {
 fn refused_transitions_name_the_state() {
     let mut rig = Rig::new(ExecutorConfig::DEFAULT);
     rig.hello();
-    assert_eq!(rig.host(HostToExec::Arm { plan_id: 7 }), wrong(ExecState::Idle));
+    assert_eq!(
+        rig.host(HostToExec::Arm { plan_id: 7, start: common::START }),
+        wrong(ExecState::Idle)
+    );
     assert_eq!(rig.host(HostToExec::Start { plan_id: 7 }), wrong(ExecState::Idle));
     assert_eq!(rig.host(HostToExec::Abort), wrong(ExecState::Idle));
 
@@ -94,12 +97,15 @@ fn refused_transitions_name_the_state() {
     assert_eq!(rig.host(HostToExec::Start { plan_id: 7 }), wrong(ExecState::PlanFlashed));
     let mismatch = CommandRejectReason::PlanIdMismatch { stored_plan_id: Some(7) };
     assert_eq!(
-        rig.host(HostToExec::Arm { plan_id: 8 }),
+        rig.host(HostToExec::Arm { plan_id: 8, start: common::START }),
         vec![ExecToHost::CommandRejected(mismatch)]
     );
 
     let mut rig = armed(2);
-    assert_eq!(rig.host(HostToExec::Arm { plan_id: 7 }), wrong(ExecState::Armed));
+    assert_eq!(
+        rig.host(HostToExec::Arm { plan_id: 7, start: common::START }),
+        wrong(ExecState::Armed)
+    );
     assert_eq!(
         rig.host(HostToExec::Start { plan_id: 9 }),
         vec![ExecToHost::CommandRejected(mismatch)]
@@ -110,7 +116,10 @@ fn refused_transitions_name_the_state() {
     let mut rig = running(2);
     assert_eq!(rig.host(HostToExec::FlashBegin(header)), wrong(ExecState::Running));
     assert_eq!(rig.host(HostToExec::FlashCommit { plan_id: 8 }), wrong(ExecState::Running));
-    assert_eq!(rig.host(HostToExec::Arm { plan_id: 7 }), wrong(ExecState::Running));
+    assert_eq!(
+        rig.host(HostToExec::Arm { plan_id: 7, start: common::START }),
+        wrong(ExecState::Running)
+    );
     assert_eq!(rig.host(HostToExec::Start { plan_id: 7 }), wrong(ExecState::Running));
     assert_eq!(rig.exec.state(), ExecState::Running);
 }
@@ -120,12 +129,16 @@ fn arm_waits_for_clock_sync_and_a_position() {
     let mut rig = Rig::new(ExecutorConfig::DEFAULT);
     rig.hello();
     rig.flash_steps(7, &square_plan(2));
-    let reply = rig.host(HostToExec::Arm { plan_id: 7 });
-    let not_ready = CommandRejectReason::NotReady { clock_synced: false, position_known: false };
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
+    let not_ready = CommandRejectReason::NotReady {
+        clock_synced: false,
+        position_known: false,
+        ctrl_ready: false,
+    };
     assert_eq!(reply, vec![ExecToHost::CommandRejected(not_ready)]);
     assert_eq!(rig.exec.state(), ExecState::PlanFlashed);
     rig.run_for(200_000);
-    let reply = rig.host(HostToExec::Arm { plan_id: 7 });
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
     assert!(matches!(reply[..], [ExecToHost::Status(s)] if s.state == ExecState::Armed));
 }
 
@@ -139,8 +152,28 @@ fn abort_stops_the_controller_and_the_plan_can_run_again() {
     assert_eq!(rig.stops.len(), stops_before + 1, "Stop sent at once");
     assert_eq!(rig.host(HostToExec::Abort), wrong(ExecState::Aborted));
     rig.run_for(50_000);
-    rig.host(HostToExec::Arm { plan_id: 7 });
-    assert_eq!(rig.exec.state(), ExecState::Armed);
+    // The probe stopped mid-plan: arming from there is refused until it is back at the start.
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
+    let probe = rig.exec.latest_position().map(|p| StagePoint { x_nm: p.x_nm, y_nm: p.y_nm });
+    let mismatch = CommandRejectReason::StartMismatch {
+        probe: probe.unwrap(),
+        start: common::START,
+        tolerance_nm: ExecutorConfig::DEFAULT.start_tolerance_nm,
+    };
+    assert_eq!(reply, vec![ExecToHost::CommandRejected(mismatch)]);
+    assert_eq!(rig.exec.state(), ExecState::Aborted);
+    rig.host(HostToExec::Goto { target: common::START });
+    assert_eq!(rig.exec.state(), ExecState::Moving);
+    assert!(rig.run_until(5_000_000, |r| r.exec.state() == ExecState::PlanFlashed));
+    rig.run_for(20_000);
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
+    assert_eq!(
+        rig.exec.state(),
+        ExecState::Armed,
+        "{reply:?} {:?} {:?}",
+        rig.exec.latest_position(),
+        rig.logs.iter().filter(|l| matches!(l, LogEvent::Motion(_))).collect::<Vec<_>>()
+    );
     rig.host(HostToExec::Start { plan_id: 7 });
     assert!(rig.run_until(5_000_000, |r| r.exec.state() == ExecState::Done));
     let kinds = trial_kinds(&rig);
@@ -184,7 +217,7 @@ fn one_khz_setpoints_stream_a_plan() {
     rig.hello();
     rig.flash_steps(3, &square_plan(2));
     rig.run_for(200_000);
-    rig.host(HostToExec::Arm { plan_id: 3 });
+    rig.host(HostToExec::Arm { plan_id: 3, start: common::START });
     rig.host(HostToExec::Start { plan_id: 3 });
     assert!(
         rig.run_until(2_000_000, |r| r.exec.state() == ExecState::Done),
@@ -201,7 +234,7 @@ fn flow_control_respects_the_controller_queue() {
     let mut rig = flashed(4);
     rig.ctrl.capacity = 3;
     rig.run_for(20_000);
-    rig.host(HostToExec::Arm { plan_id: 7 });
+    rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
     rig.host(HostToExec::Start { plan_id: 7 });
     assert!(rig.run_until(5_000_000, |r| r.exec.state() != ExecState::Running));
     assert_eq!(rig.exec.state(), ExecState::Done, "{:?}", rig.exec.status(rig.now_us));

@@ -10,7 +10,7 @@ use mesopush_firmware_sim::{
 };
 use mesopush_protocol::flash::{FlashHeader, PlanStep, image_chunks};
 use mesopush_protocol::host::{
-    CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, TrialEventKind,
+    CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, StagePoint, TrialEventKind,
 };
 use mesopush_protocol::{FRAME_BUF_LEN, FrameReader, Link, LinkConfig, encode_frame};
 use serialport::{SerialPort, TTYPort};
@@ -175,7 +175,12 @@ fn a_plan_runs_through_the_binary_over_pseudo_terminals() {
         }
         if now >= next_arm_us {
             next_arm_us = u64::MAX;
-            host.link.send(HostToExec::Arm { plan_id: 3 }).unwrap();
+            host.link
+                .send(HostToExec::Arm {
+                    plan_id: 3,
+                    start: StagePoint { x_nm: 1_000_000, y_nm: 1_000_000 },
+                })
+                .unwrap();
         }
     }
     let _ = child.kill();

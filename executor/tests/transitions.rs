@@ -7,7 +7,10 @@ use ExecState::*;
 use common::{Rig, image, square_plan};
 use mesopush_executor::ExecutorConfig;
 use mesopush_protocol::flash::{FlashHeader, FlashRejectReason, image_chunks};
-use mesopush_protocol::host::{CommandRejectReason, ExecState, ExecToHost, HostToExec};
+use mesopush_protocol::host::{CommandRejectReason, ExecState, ExecToHost, HostToExec, StagePoint};
+
+/// A goto target 200 µm from the rig's start (1 s at the default goto speed).
+const NEAR: StagePoint = StagePoint { x_nm: 1_200_000, y_nm: 1_000_000 };
 
 /// Brings a rig with plan 7 (2 steps) into `state`.
 fn rig_in(state: ExecState) -> Rig {
@@ -21,12 +24,15 @@ fn rig_in(state: ExecState) -> Rig {
     rig.run_for(200_000);
     match state {
         Idle | PlanFlashed => {}
+        Moving => {
+            rig.host(HostToExec::Goto { target: NEAR });
+        }
         Flashing => {
             let img = image(&square_plan(3));
             rig.host(HostToExec::FlashBegin(FlashHeader::for_image(8, &img).unwrap()));
         }
         _ => {
-            rig.host(HostToExec::Arm { plan_id: 7 });
+            rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
         }
     }
     match state {
@@ -56,6 +62,8 @@ enum Answer {
     WrongState,
     /// `FlashRejected { NoFlashInProgress }`.
     NoFlash,
+    /// `CommandRejected(StartMismatch { .. })`: the probe is not at the plan's start.
+    StartMismatch,
 }
 
 fn answer(rig: &Rig, state: ExecState, replies: &[ExecToHost]) -> Answer {
@@ -67,11 +75,15 @@ fn answer(rig: &Rig, state: ExecState, replies: &[ExecToHost]) -> Answer {
         Some(ExecToHost::FlashRejected {
             reason: FlashRejectReason::NoFlashInProgress, ..
         }) => Answer::NoFlash,
+        Some(ExecToHost::CommandRejected(CommandRejectReason::StartMismatch { .. })) => {
+            Answer::StartMismatch
+        }
         Some(
             ExecToHost::FlashProgress { .. }
             | ExecToHost::FlashAccepted { .. }
             | ExecToHost::Status(_)
-            | ExecToHost::Trial(_),
+            | ExecToHost::Trial(_)
+            | ExecToHost::Motion(_),
         ) => Answer::Ok,
         other => panic!("{state:?}: unexpected answer {other:?} ({:?})", rig.exec.state()),
     }
@@ -85,14 +97,17 @@ fn commands() -> Vec<(&'static str, Vec<HostToExec>)> {
         ("begin", vec![HostToExec::FlashBegin(header)]),
         ("chunk", vec![HostToExec::FlashChunk(chunk)]),
         ("commit", vec![HostToExec::FlashCommit { plan_id: 9 }]),
-        ("arm", vec![HostToExec::Arm { plan_id: 7 }]),
+        ("arm", vec![HostToExec::Arm { plan_id: 7, start: common::START }]),
         ("start", vec![HostToExec::Start { plan_id: 7 }]),
         ("abort", vec![HostToExec::Abort]),
+        ("goto", vec![HostToExec::Goto { target: NEAR }]),
+        ("home", vec![HostToExec::Home]),
+        ("stop", vec![HostToExec::Stop]),
     ]
 }
 
 /// Expected (answer, next state) per state, in the order of `commands()`.
-fn expected(state: ExecState) -> [(Answer, ExecState); 6] {
+fn expected(state: ExecState) -> [(Answer, ExecState); 9] {
     use Answer::*;
     let after_flash_begin = (Ok, Flashing);
     match state {
@@ -103,11 +118,17 @@ fn expected(state: ExecState) -> [(Answer, ExecState); 6] {
             (WrongState, Idle),
             (WrongState, Idle),
             (WrongState, Idle),
+            (Ok, Moving),
+            (Ok, Moving),
+            (Ok, Idle),
         ],
         // A chunk of another plan (9 ≠ 8) ends the upload; a commit of 9 too.
         Flashing => [
             after_flash_begin,
             (Ok, PlanFlashed),
+            (Ok, PlanFlashed),
+            (WrongState, Flashing),
+            (WrongState, Flashing),
             (Ok, PlanFlashed),
             (WrongState, Flashing),
             (WrongState, Flashing),
@@ -120,6 +141,9 @@ fn expected(state: ExecState) -> [(Answer, ExecState); 6] {
             (Ok, Armed),
             (WrongState, PlanFlashed),
             (WrongState, PlanFlashed),
+            (Ok, Moving),
+            (Ok, Moving),
+            (Ok, PlanFlashed),
         ],
         Armed => [
             (WrongState, Armed),
@@ -127,6 +151,9 @@ fn expected(state: ExecState) -> [(Answer, ExecState); 6] {
             (WrongState, Armed),
             (WrongState, Armed),
             (Ok, Running),
+            (Ok, Aborted),
+            (WrongState, Armed),
+            (WrongState, Armed),
             (Ok, Aborted),
         ],
         Running => [
@@ -136,14 +163,21 @@ fn expected(state: ExecState) -> [(Answer, ExecState); 6] {
             (WrongState, Running),
             (WrongState, Running),
             (Ok, Aborted),
+            (WrongState, Running),
+            (WrongState, Running),
+            (Ok, Aborted),
         ],
         Done => [
             after_flash_begin,
             (NoFlash, Done),
             (NoFlash, Done),
-            (Ok, Armed),
+            // The probe is where the plan ended: `goto` the start first.
+            (StartMismatch, Done),
             (WrongState, Done),
             (WrongState, Done),
+            (Ok, Moving),
+            (Ok, Moving),
+            (Ok, Done),
         ],
         Aborted => [
             after_flash_begin,
@@ -152,6 +186,9 @@ fn expected(state: ExecState) -> [(Answer, ExecState); 6] {
             (Ok, Armed),
             (WrongState, Aborted),
             (WrongState, Aborted),
+            (Ok, Moving),
+            (Ok, Moving),
+            (Ok, Aborted),
         ],
         // Arming after a lost controller link: the controller is still heard, so it arms.
         Faulted => [
@@ -161,13 +198,28 @@ fn expected(state: ExecState) -> [(Answer, ExecState); 6] {
             (Ok, Armed),
             (WrongState, Faulted),
             (WrongState, Faulted),
+            (Ok, Moving),
+            (Ok, Moving),
+            (Ok, Faulted),
+        ],
+        // A goto in progress: every command but a stop (or abort) waits for its end.
+        Moving => [
+            (WrongState, Moving),
+            (WrongState, Moving),
+            (WrongState, Moving),
+            (WrongState, Moving),
+            (WrongState, Moving),
+            (Ok, PlanFlashed),
+            (WrongState, Moving),
+            (WrongState, Moving),
+            (Ok, PlanFlashed),
         ],
     }
 }
 
 #[test]
 fn every_command_in_every_state() {
-    for state in [Idle, Flashing, PlanFlashed, Armed, Running, Done, Aborted, Faulted] {
+    for state in [Idle, Flashing, PlanFlashed, Armed, Running, Done, Aborted, Faulted, Moving] {
         for (i, (name, msgs)) in commands().into_iter().enumerate() {
             let mut rig = rig_in(state);
             let mut replies = Vec::new();

@@ -7,14 +7,14 @@ mod common;
 use common::{Rig, square_plan};
 use mesopush_executor::{ExecutorConfig, Input};
 use mesopush_protocol::ctrl::FaultCode;
-use mesopush_protocol::host::{ExecState, HostToExec, TrialEventKind, TrialFault};
+use mesopush_protocol::host::{ExecState, HostToExec, StagePoint, TrialEventKind, TrialFault};
 
 fn running(config: ExecutorConfig) -> Rig {
     let mut rig = Rig::new(config);
     rig.hello();
     rig.flash_steps(7, &square_plan(12));
     rig.run_for(200_000);
-    rig.host(HostToExec::Arm { plan_id: 7 });
+    rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
     rig.host(HostToExec::Start { plan_id: 7 });
     rig.run_for(300_000);
     assert_eq!(rig.exec.state(), ExecState::Running);
@@ -54,7 +54,7 @@ fn silent_controller_while_armed_faults_too() {
     rig.hello();
     rig.flash_steps(7, &square_plan(2));
     rig.run_for(200_000);
-    rig.host(HostToExec::Arm { plan_id: 7 });
+    rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
     rig.ctrl.silent = true;
     let silent_from = rig.now_us;
     assert!(rig.run_until(1_000_000, |r| r.exec.state() == ExecState::Faulted));
@@ -103,15 +103,18 @@ fn controller_fault_report_faults_the_trial() {
     // Re-arming a controller still faulted sends ClearFault and asks to retry; once the
     // controller reports it cleared, arming works.
     rig.run_for(20_000);
-    let reply = rig.host(HostToExec::Arm { plan_id: 7 });
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: common::START });
     assert!(
         matches!(reply[..], [mesopush_protocol::host::ExecToHost::CommandRejected(_)]),
         "{reply:?}"
     );
     assert!(!rig.ctrl.faulted, "ClearFault sent");
     rig.run_for(20_000);
-    rig.host(HostToExec::Arm { plan_id: 7 });
-    assert_eq!(rig.exec.state(), ExecState::Armed);
+    // The probe stopped mid-plan: state where it is (the start check is `rig_commands`').
+    let p = rig.exec.latest_position().expect("a position");
+    let here = StagePoint { x_nm: p.x_nm, y_nm: p.y_nm };
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: here });
+    assert_eq!(rig.exec.state(), ExecState::Armed, "{reply:?}");
 }
 
 #[test]

@@ -5,7 +5,7 @@
 //! frame and probe telemetry. Times named `exec_time_us` / `frame_stamp_us` are in the
 //! executor's clock, `ctrl_time_us` in the controller's, `host_time_us` in the host's.
 
-use crate::ctrl::FaultReport;
+use crate::ctrl::{CtrlState, FaultReport};
 use crate::flash::{FlashChunk, FlashHeader, FlashRejectReason, SafetyLimit};
 use crate::max_size::{MaxSize, discriminant_bytes, max_of};
 use serde::{Deserialize, Serialize};
@@ -45,10 +45,15 @@ pub enum HostToExec {
         /// Plan being committed.
         plan_id: u32,
     },
-    /// Arm the flashed plan (the executor syncs its clock with the controller).
+    /// Arm the flashed plan (the executor syncs its clock with the controller). The plan's
+    /// moves are relative; `start` is where the host's plan says they begin, in the stage's
+    /// absolute frame. The executor refuses ([`CommandRejectReason::StartMismatch`]) when the
+    /// probe's reported position is farther from it than its configured tolerance.
     Arm {
         /// Plan expected to be flashed.
         plan_id: u32,
+        /// The plan's stated start, stage frame.
+        start: StagePoint,
     },
     /// Start the armed plan.
     Start {
@@ -64,6 +69,27 @@ pub enum HostToExec {
         /// Host time at sending, µs in the host's clock.
         host_time_us: u64,
     },
+    /// Move the probe to `target` (stage frame) between trials: a straight line (inside the
+    /// convex workspace box) at the executor's configured goto speed. Answered by
+    /// [`ExecToHost::Motion`] events, or refused.
+    Goto {
+        /// Where to, stage frame.
+        target: StagePoint,
+    },
+    /// [`HostToExec::Goto`] the executor's configured home (park) position.
+    Home,
+    /// Stop the probe now, from any state: a running trial ends as aborted, a goto as
+    /// stopped; answered by [`ExecToHost::Status`].
+    Stop,
+}
+
+/// A probe position in the stage's absolute frame (what the controller reports), nm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StagePoint {
+    /// x, nm.
+    pub x_nm: i32,
+    /// y, nm.
+    pub y_nm: i32,
 }
 
 /// Executor life cycle.
@@ -85,6 +111,8 @@ pub enum ExecState {
     Aborted,
     /// A fault stopped the trial.
     Faulted,
+    /// A goto (or home) is moving the probe.
+    Moving,
 }
 
 /// Executor status snapshot.
@@ -100,8 +128,12 @@ pub struct ExecStatus {
     pub step_count: u32,
     /// Next step to stream.
     pub step_index: u32,
-    /// Why the last trial faulted, if it did.
+    /// Why the last trial (or goto) faulted, if it did.
     pub last_fault: Option<TrialFault>,
+    /// The probe's absolute position from the controller's latest report, if any.
+    pub probe: Option<StagePoint>,
+    /// The controller's motion state from its latest status, if any.
+    pub ctrl_state: Option<CtrlState>,
 }
 
 /// Why the executor refused a command.
@@ -133,6 +165,27 @@ pub enum CommandRejectReason {
         clock_synced: bool,
         /// A controller position report has been received.
         position_known: bool,
+        /// The controller is not in its faulted state (the executor has asked it to clear
+        /// the fault; retry).
+        ctrl_ready: bool,
+    },
+    /// Arming refused: the probe is not where the plan says it starts.
+    StartMismatch {
+        /// The probe, from the controller's latest report.
+        probe: StagePoint,
+        /// The plan's stated start.
+        start: StagePoint,
+        /// The executor's tolerance, nm.
+        tolerance_nm: u32,
+    },
+    /// A goto target outside the workspace box.
+    OutsideWorkspace {
+        /// The target.
+        target: StagePoint,
+        /// The box's smallest corner.
+        min: StagePoint,
+        /// The box's largest corner.
+        max: StagePoint,
     },
 }
 
@@ -216,6 +269,34 @@ pub struct ProbeTelemetry {
     pub ctrl_queue_free_slots: u16,
 }
 
+/// What a goto (or home) did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MotionEventKind {
+    /// The move started towards `target`.
+    Started {
+        /// Where to.
+        target: StagePoint,
+    },
+    /// The move ended; the probe's last reported position.
+    Arrived {
+        /// Where the probe is.
+        at: StagePoint,
+    },
+    /// A [`HostToExec::Stop`] ended the move.
+    Stopped,
+    /// A fault stopped the move.
+    Faulted(TrialFault),
+}
+
+/// A goto or home event with its time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MotionEvent {
+    /// When it happened, µs in the executor's clock.
+    pub exec_time_us: u64,
+    /// What happened.
+    pub kind: MotionEventKind,
+}
+
 /// Executor → host.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ExecToHost {
@@ -257,25 +338,32 @@ pub enum ExecToHost {
     Frame(FrameStamp),
     /// Probe telemetry.
     Telemetry(ProbeTelemetry),
+    /// Something happened in a goto or home.
+    Motion(MotionEvent),
 }
 
 impl MaxSize for Hello {
     const MAX_SIZE: usize = u16::MAX_SIZE + u32::MAX_SIZE;
 }
 
+impl MaxSize for StagePoint {
+    const MAX_SIZE: usize = 2 * i32::MAX_SIZE;
+}
+
 impl MaxSize for HostToExec {
-    const MAX_SIZE: usize = discriminant_bytes(9)
+    const MAX_SIZE: usize = discriminant_bytes(12)
         + max_of(&[
             Hello::MAX_SIZE,
             FlashHeader::MAX_SIZE,
             FlashChunk::MAX_SIZE,
-            u32::MAX_SIZE,
+            u32::MAX_SIZE + StagePoint::MAX_SIZE,
             u64::MAX_SIZE,
+            StagePoint::MAX_SIZE,
         ]);
 }
 
 impl MaxSize for ExecState {
-    const MAX_SIZE: usize = discriminant_bytes(8);
+    const MAX_SIZE: usize = discriminant_bytes(9);
 }
 
 impl MaxSize for ExecStatus {
@@ -283,16 +371,20 @@ impl MaxSize for ExecStatus {
         + ExecState::MAX_SIZE
         + <Option<u32>>::MAX_SIZE
         + 2 * u32::MAX_SIZE
-        + <Option<TrialFault>>::MAX_SIZE;
+        + <Option<TrialFault>>::MAX_SIZE
+        + <Option<StagePoint>>::MAX_SIZE
+        + <Option<CtrlState>>::MAX_SIZE;
 }
 
 impl MaxSize for CommandRejectReason {
-    const MAX_SIZE: usize = discriminant_bytes(5)
+    const MAX_SIZE: usize = discriminant_bytes(7)
         + max_of(&[
             ExecState::MAX_SIZE,
             <Option<u32>>::MAX_SIZE,
             <Option<u32>>::MAX_SIZE + SafetyLimit::MAX_SIZE,
-            2 * bool::MAX_SIZE,
+            3 * bool::MAX_SIZE,
+            2 * StagePoint::MAX_SIZE + u32::MAX_SIZE,
+            3 * StagePoint::MAX_SIZE,
         ]);
 }
 
@@ -317,8 +409,17 @@ impl MaxSize for ProbeTelemetry {
     const MAX_SIZE: usize = 2 * u64::MAX_SIZE + 2 * i32::MAX_SIZE + u32::MAX_SIZE + u16::MAX_SIZE;
 }
 
+impl MaxSize for MotionEventKind {
+    const MAX_SIZE: usize =
+        discriminant_bytes(4) + max_of(&[StagePoint::MAX_SIZE, TrialFault::MAX_SIZE]);
+}
+
+impl MaxSize for MotionEvent {
+    const MAX_SIZE: usize = u64::MAX_SIZE + MotionEventKind::MAX_SIZE;
+}
+
 impl MaxSize for ExecToHost {
-    const MAX_SIZE: usize = discriminant_bytes(9)
+    const MAX_SIZE: usize = discriminant_bytes(10)
         + max_of(&[
             Hello::MAX_SIZE + bool::MAX_SIZE,
             2 * u32::MAX_SIZE,
@@ -328,5 +429,6 @@ impl MaxSize for ExecToHost {
             TrialEvent::MAX_SIZE,
             FrameStamp::MAX_SIZE,
             ProbeTelemetry::MAX_SIZE,
+            MotionEvent::MAX_SIZE,
         ]);
 }

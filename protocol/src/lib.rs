@@ -26,6 +26,7 @@
 
 pub mod camera;
 pub mod ctrl;
+pub mod describe;
 pub mod error;
 pub mod flash;
 pub mod frame;
@@ -44,7 +45,7 @@ pub use max_size::MaxSize;
 pub use reader::FrameReader;
 
 /// Protocol version; bumped when a change breaks compatibility with deployed peers.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 
 /// Description of every wire type, in encoding order. Edit it with every change to a type in
 /// [`host`], [`ctrl`], [`flash`] or [`frame`]; [`SCHEMA_HASH`] is derived from it.
@@ -64,16 +65,19 @@ ctrl: FaultCode=Stall|LimitSwitch|Reboot|QueueOverflow|QueueUnderrun|BadSegment|
 ctrl: FaultReport{ctrl_time_us:u64,code:FaultCode,segment_id:Option<u32>,x_nm:i32,y_nm:i32}
 ctrl: CtrlToExec=Position(PositionReport)|Status(CtrlStatus)|ClockSyncReply{query_id:u32,ctrl_time_us:u64}|Heartbeat{ctrl_time_us:u64}|Fault(FaultReport)
 host: Hello{protocol_version:u16,schema_hash:u32}
-host: HostToExec=Hello(Hello)|FlashBegin(FlashHeader)|FlashChunk(FlashChunk)|FlashCommit{plan_id:u32}|Arm{plan_id:u32}|Start{plan_id:u32}|Abort|StatusQuery|Heartbeat{host_time_us:u64}
-host: ExecState=Idle|Flashing|PlanFlashed|Armed|Running|Done|Aborted|Faulted
-host: ExecStatus{exec_time_us:u64,state:ExecState,plan_id:Option<u32>,step_count:u32,step_index:u32,last_fault:Option<TrialFault>}
-host: CommandRejectReason=WrongState{state:ExecState}|PlanIdMismatch{stored_plan_id:Option<u32>}|Incompatible|Unsafe{step_index:Option<u32>,limit:SafetyLimit}|NotReady{clock_synced:bool,position_known:bool}
+host: StagePoint{x_nm:i32,y_nm:i32}
+host: HostToExec=Hello(Hello)|FlashBegin(FlashHeader)|FlashChunk(FlashChunk)|FlashCommit{plan_id:u32}|Arm{plan_id:u32,start:StagePoint}|Start{plan_id:u32}|Abort|StatusQuery|Heartbeat{host_time_us:u64}|Goto{target:StagePoint}|Home|Stop
+host: ExecState=Idle|Flashing|PlanFlashed|Armed|Running|Done|Aborted|Faulted|Moving
+host: ExecStatus{exec_time_us:u64,state:ExecState,plan_id:Option<u32>,step_count:u32,step_index:u32,last_fault:Option<TrialFault>,probe:Option<StagePoint>,ctrl_state:Option<CtrlState>}
+host: CommandRejectReason=WrongState{state:ExecState}|PlanIdMismatch{stored_plan_id:Option<u32>}|Incompatible|Unsafe{step_index:Option<u32>,limit:SafetyLimit}|NotReady{clock_synced:bool,position_known:bool,ctrl_ready:bool}|StartMismatch{probe:StagePoint,start:StagePoint,tolerance_nm:u32}|OutsideWorkspace{target:StagePoint,min:StagePoint,max:StagePoint}
 host: TrialFault=Controller(FaultReport)|ControllerSilent{last_heard_exec_time_us:u64}|HostLinkLost{last_heard_exec_time_us:u64}|ClockSyncLost|StreamUnderrun{step_index:u32}
 host: TrialEventKind=Started|Done|Aborted|Faulted(TrialFault)
 host: TrialEvent{exec_time_us:u64,plan_id:u32,step_index:u32,kind:TrialEventKind}
 host: FrameStamp{frame_seq:u32,frame_stamp_us:u64,probe_x_nm:i32,probe_y_nm:i32}
 host: ProbeTelemetry{exec_time_us:u64,ctrl_time_us:u64,probe_x_nm:i32,probe_y_nm:i32,step_index:u32,ctrl_queue_free_slots:u16}
-host: ExecToHost=HelloReply{hello:Hello,accepted:bool}|FlashProgress{plan_id:u32,received_bytes:u32}|FlashAccepted{plan_id:u32,step_count:u32}|FlashRejected{plan_id:u32,reason:FlashRejectReason}|CommandRejected(CommandRejectReason)|Status(ExecStatus)|Trial(TrialEvent)|Frame(FrameStamp)|Telemetry(ProbeTelemetry)
+host: MotionEventKind=Started{target:StagePoint}|Arrived{at:StagePoint}|Stopped|Faulted(TrialFault)
+host: MotionEvent{exec_time_us:u64,kind:MotionEventKind}
+host: ExecToHost=HelloReply{hello:Hello,accepted:bool}|FlashProgress{plan_id:u32,received_bytes:u32}|FlashAccepted{plan_id:u32,step_count:u32}|FlashRejected{plan_id:u32,reason:FlashRejectReason}|CommandRejected(CommandRejectReason)|Status(ExecStatus)|Trial(TrialEvent)|Frame(FrameStamp)|Telemetry(ProbeTelemetry)|Motion(MotionEvent)
 ";
 
 /// 32-bit FNV-1a hash of [`SCHEMA`], exchanged in the handshake.

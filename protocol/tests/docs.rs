@@ -5,7 +5,7 @@ use mesopush_protocol::ctrl::{CtrlStatus, FaultCode, FaultReport, MoveSegment, P
 use mesopush_protocol::flash::{FlashChunk, FlashHeader, FlashRejectReason, PlanStep};
 use mesopush_protocol::frame::frame_len_max;
 use mesopush_protocol::host::{
-    ExecStatus, FrameStamp, Hello, ProbeTelemetry, TrialEvent, TrialFault,
+    ExecStatus, FrameStamp, Hello, MotionEvent, ProbeTelemetry, StagePoint, TrialEvent, TrialFault,
 };
 use mesopush_protocol::{CtrlToExec, ExecToCtrl, ExecToHost, FRAME_BUF_LEN, HostToExec, MaxSize};
 
@@ -25,6 +25,8 @@ fn sizes() -> Vec<(&'static str, usize, Option<usize>)> {
         ("TrialFault", TrialFault::MAX_SIZE, None),
         ("FrameStamp", FrameStamp::MAX_SIZE, None),
         ("ProbeTelemetry", ProbeTelemetry::MAX_SIZE, None),
+        ("StagePoint", StagePoint::MAX_SIZE, None),
+        ("MotionEvent", MotionEvent::MAX_SIZE, None),
         ("MoveSegment", MoveSegment::MAX_SIZE, None),
         ("PositionReport", PositionReport::MAX_SIZE, None),
         ("CtrlStatus", CtrlStatus::MAX_SIZE, None),

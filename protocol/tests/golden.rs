@@ -154,6 +154,9 @@ fn host_variant(m: &HostToExec) -> usize {
         HostToExec::Abort => 6,
         HostToExec::StatusQuery => 7,
         HostToExec::Heartbeat { .. } => 8,
+        HostToExec::Goto { .. } => 9,
+        HostToExec::Home => 10,
+        HostToExec::Stop => 11,
     }
 }
 
@@ -168,6 +171,7 @@ fn exec_variant(m: &ExecToHost) -> usize {
         ExecToHost::Trial(_) => 6,
         ExecToHost::Frame(_) => 7,
         ExecToHost::Telemetry(_) => 8,
+        ExecToHost::Motion(_) => 9,
     }
 }
 
@@ -199,8 +203,8 @@ fn covered(indices: impl Iterator<Item = usize>) -> std::collections::BTreeSet<u
 #[test]
 fn samples_cover_every_top_level_variant() {
     let all = |n: usize| (0..n).collect::<std::collections::BTreeSet<_>>();
-    assert_eq!(covered(common::host_to_exec().iter().map(|(_, m)| host_variant(m))), all(9));
-    assert_eq!(covered(common::exec_to_host().iter().map(|(_, m)| exec_variant(m))), all(9));
+    assert_eq!(covered(common::host_to_exec().iter().map(|(_, m)| host_variant(m))), all(12));
+    assert_eq!(covered(common::exec_to_host().iter().map(|(_, m)| exec_variant(m))), all(10));
     assert_eq!(covered(common::exec_to_ctrl().iter().map(|(_, m)| ctrl_cmd_variant(m))), all(6));
     assert_eq!(covered(common::ctrl_to_exec().iter().map(|(_, m)| ctrl_variant(m))), all(5));
 }

@@ -5,7 +5,9 @@
 mod common;
 
 use common::channel::{Channel, Faults, Rng, flush};
-use mesopush_protocol::host::{ExecToHost, HostToExec};
+use mesopush_protocol::host::{ExecToHost, HostToExec, StagePoint};
+
+const START: StagePoint = StagePoint { x_nm: 1_000, y_nm: 2_000 };
 use mesopush_protocol::link::LinkStats;
 use mesopush_protocol::{
     FRAME_BUF_LEN, Frame, FrameKind, Link, LinkConfig, LinkDown, decode_frame, encode_frame,
@@ -125,7 +127,7 @@ fn sequence_numbers_wrap_without_loss_or_duplication() {
 fn full_window_hands_the_message_back() {
     let mut host = HostLink::new(LinkConfig::DEFAULT, HOST_SESSION);
     for plan_id in 0..WINDOW as u32 {
-        assert_eq!(host.send(HostToExec::Arm { plan_id }), Ok(()));
+        assert_eq!(host.send(HostToExec::Arm { plan_id, start: START }), Ok(()));
     }
     assert_eq!(host.free_slots(), 0);
     assert_eq!(host.send(HostToExec::Abort), Err(HostToExec::Abort));
@@ -191,7 +193,7 @@ fn duplicate_data_is_acked_but_not_redelivered() {
 fn nack_resends_the_window_only_after_the_holdoff() {
     let config = LinkConfig::DEFAULT;
     let mut host = HostLink::new(config, HOST_SESSION);
-    host.send(HostToExec::Arm { plan_id: 1 }).expect("room");
+    host.send(HostToExec::Arm { plan_id: 1, start: START }).expect("room");
     host.send(HostToExec::Start { plan_id: 1 }).expect("room");
     assert!(matches!(
         host.poll_transmit(0),

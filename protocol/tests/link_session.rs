@@ -3,7 +3,9 @@
 //! delayed frames from the peer's previous life are ignored, `reset` announces itself, and a
 //! peer that only nacks still times out.
 
-use mesopush_protocol::host::{ExecToHost, HostToExec};
+use mesopush_protocol::host::{ExecToHost, HostToExec, StagePoint};
+
+const START: StagePoint = StagePoint { x_nm: 1_000, y_nm: 2_000 };
 use mesopush_protocol::{Frame, FrameKind, Link, LinkConfig};
 
 type HostLink = Link<HostToExec, ExecToHost, 8>;
@@ -29,7 +31,7 @@ type Sent = (u16, Option<u16>, u16, Option<(u16, u32)>);
 fn next(host: &mut HostLink, now_us: u64) -> Option<Sent> {
     host.poll_transmit(now_us).map(|f| {
         let data = match f.kind {
-            FrameKind::Data { seq, msg: HostToExec::Arm { plan_id } } => Some((seq, *plan_id)),
+            FrameKind::Data { seq, msg: HostToExec::Arm { plan_id, .. } } => Some((seq, *plan_id)),
             _ => None,
         };
         (f.sender_session, f.receiver_session, f.ack, data)
@@ -51,7 +53,7 @@ fn frame_addressed_to_an_earlier_life_is_dropped_and_answered_with_the_current_s
 fn peer_restart_renumbers_and_resends_the_unacknowledged_window() {
     let mut host = HostLink::new(LinkConfig::DEFAULT, HOST);
     for plan_id in 0..3 {
-        host.send(HostToExec::Arm { plan_id }).expect("room");
+        host.send(HostToExec::Arm { plan_id, start: START }).expect("room");
     }
     for _ in 0..3 {
         assert!(next(&mut host, 0).is_some());

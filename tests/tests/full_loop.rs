@@ -136,7 +136,9 @@ fn under_link_faults_no_move_is_lost_repeated_or_reordered() {
         if r.state != TrialState::Done {
             assert_eq!(r.state, TrialState::Faulted, "seed {seed}: {r:?}");
             let reason = r.reason.clone().unwrap_or_default();
-            let timing = ["SegmentLate", "QueueUnderrun", "StreamUnderrun"];
+            // The reasons in words (`mesopush_protocol::describe`): SegmentLate,
+            // QueueUnderrun, StreamUnderrun.
+            let timing = ["after its start time", "ran dry mid-motion", "could not send the moves"];
             assert!(timing.iter().any(|t| reason.contains(t)), "seed {seed}: {reason}");
             assert!(r.segments_applied < r.segments_expected, "seed {seed}");
             continue;
@@ -165,7 +167,8 @@ fn a_controller_fault_stops_the_probe_and_faults_the_trial() {
     let w = world(100_000, "stall_per_s = 3.0");
     let r = run(&spec(short_plan(), w, seed), &dir.path().join("t"));
     assert_eq!(r.state, TrialState::Faulted, "seed {seed}: {r:?}");
-    assert!(r.reason.as_deref().unwrap_or("").contains("Stall"), "seed {seed}: {:?}", r.reason);
+    let reason = r.reason.as_deref().unwrap_or("");
+    assert!(reason.contains("the stage stalled"), "seed {seed}: {reason:?}"); // FaultCode::Stall
     assert_eq!(r.faults_detected, 1, "seed {seed}");
     let trial = Trial::load(&r.dir).unwrap();
     assert_eq!(trial.meta.outcome.state, TrialState::Faulted, "seed {seed}");

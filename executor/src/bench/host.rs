@@ -5,7 +5,9 @@ use crate::clock::{Clock, MonotonicClock};
 use crate::shell::port::{CHUNK_BYTES, Chunk};
 use crossbeam_channel::{Receiver, RecvTimeoutError, Sender};
 use mesopush_protocol::flash::{FlashHeader, PlanStep, image_chunks};
-use mesopush_protocol::host::{CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec};
+use mesopush_protocol::host::{
+    CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, StagePoint,
+};
 use mesopush_protocol::{FRAME_BUF_LEN, FrameReader, Link, LinkConfig, encode_frame};
 use std::io;
 use std::prelude::rust_2024::*;
@@ -14,6 +16,8 @@ use std::time::Duration;
 
 /// Plan id the bench flashes.
 const PLAN_ID: u32 = 9;
+/// Where the bench's controller starts the probe, and so the plan's stated start, nm.
+pub(crate) const START_NM: (i32, i32) = (0, 0);
 /// Probe speed of the bench plan, nm/s.
 const SPEED_NM_S: u32 = 140_000;
 
@@ -72,7 +76,8 @@ pub(crate) fn drive(
         }
         if outbox.is_empty() && now >= next_arm_us {
             next_arm_us = u64::MAX;
-            outbox.push(HostToExec::Arm { plan_id: PLAN_ID });
+            let start = StagePoint { x_nm: START_NM.0, y_nm: START_NM.1 };
+            outbox.push(HostToExec::Arm { plan_id: PLAN_ID, start });
         }
         if now >= next_heartbeat_us {
             next_heartbeat_us = now + 100_000;

@@ -109,7 +109,7 @@ pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
         [(); 4].map(|()| bounded::<Chunk>(4096));
     let steps = host::bench_plan(opts.seconds);
     let expected = (opts.seconds * f64::from(opts.rate_hz)) as usize;
-    let ctrl = ctrl::BenchCtrl::new((0, 0), expected);
+    let ctrl = ctrl::BenchCtrl::new(host::START_NM, expected);
     let (c2, s2) = (clock.clone(), stop.clone());
     // The controller stands for a separate microcontroller: with --rt-priority it runs one
     // below the shell (unpinned), so a loaded host does not starve its replies and reports.

@@ -51,6 +51,8 @@ struct Cli {
     run: Option<Args>,
 }
 
+// Parsed once at start-up: the size difference costs nothing worth a box.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Run the executor on two serial lines (the default).
@@ -175,6 +177,17 @@ struct Args {
     /// Frames recorded after a trial's end, ms.
     #[arg(long, default_value_t = 500)]
     record_tail_ms: u64,
+    /// Arming is refused when the probe is farther than this from the plan's stated start,
+    /// µm (move it with `mesopush rig goto`).
+    #[arg(long, default_value_t = 5.0)]
+    start_tolerance_um: f64,
+    /// Speed of `rig goto` / `rig home` moves, µm/s (its start from rest must stay within
+    /// the acceleration limit at the setpoint rate: ≤ 200 mm/s² ÷ rate).
+    #[arg(long, default_value_t = 200.0)]
+    goto_speed_um_s: f64,
+    /// `rig home`'s park position, stage µm [default: the workspace's centre, 5000,5000].
+    #[arg(long, value_name = "X,Y")]
+    home_um: Option<String>,
 }
 
 /// Increments the boot counter kept beside the plan store; link sessions must differ
@@ -236,6 +249,56 @@ fn bench(b: &BenchArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The executor's configuration from the flags, each checked with the flag, value and
+/// allowed range named.
+fn motion_config(args: &Args) -> Result<ExecutorConfig> {
+    use mesopush_protocol::units::{um_s_to_nm_s, um_to_nm};
+    let d = ExecutorConfig::DEFAULT;
+    let tol = args.start_tolerance_um;
+    if !(tol.is_finite() && (0.0..=10_000.0).contains(&tol)) {
+        bail!("--start-tolerance-um must be in 0..=10000 µm, got {tol}");
+    }
+    let start_tolerance_nm = u32::try_from(um_to_nm("--start-tolerance-um", tol)?)?;
+    let speed = args.goto_speed_um_s;
+    let goto_speed_nm_s = um_s_to_nm_s("--goto-speed-um-s", speed)?;
+    let accel = u64::from(goto_speed_nm_s) * u64::from(args.setpoint_rate_hz);
+    if goto_speed_nm_s == 0 || goto_speed_nm_s > d.max_speed_nm_s || accel > d.max_accel_nm_s2 {
+        bail!(
+            "--goto-speed-um-s {speed} is out of range: above 0, at most {} µm/s and at most {} \
+             µm/s at --setpoint-rate-hz {} (the acceleration limit)",
+            d.max_speed_nm_s / 1000,
+            d.max_accel_nm_s2 / 1000 / u64::from(args.setpoint_rate_hz.max(1)),
+            args.setpoint_rate_hz
+        );
+    }
+    let home_nm = match &args.home_um {
+        Some(text) => {
+            let (x, y) = parse_pair("--home-um", text)?;
+            (um_to_nm("--home-um x", x)?, um_to_nm("--home-um y", y)?)
+        }
+        None => d.home_nm,
+    };
+    let w = d.workspace;
+    if !w.contains(i64::from(home_nm.0), i64::from(home_nm.1)) {
+        bail!(
+            "--home-um must lie in the workspace {}..={} × {}..={} µm",
+            w.min_x_nm / 1000,
+            w.max_x_nm / 1000,
+            w.min_y_nm / 1000,
+            w.max_y_nm / 1000
+        );
+    }
+    Ok(ExecutorConfig {
+        setpoint_rate_hz: args.setpoint_rate_hz,
+        lookahead_segments: args.lookahead_segments,
+        sync_max_rtt_us: args.sync_max_rtt_us,
+        start_tolerance_nm,
+        goto_speed_nm_s,
+        home_nm,
+        ..d
+    })
 }
 
 fn parse_pair(flag: &str, text: &str) -> Result<(f64, f64)> {
@@ -307,16 +370,11 @@ fn run(args: Args) -> Result<()> {
     if usize::from(args.lookahead_segments) > LA {
         bail!("--lookahead-segments {} exceeds the queue of {LA}", args.lookahead_segments);
     }
-    let config = ExecutorConfig {
-        setpoint_rate_hz: args.setpoint_rate_hz,
-        lookahead_segments: args.lookahead_segments,
-        sync_max_rtt_us: args.sync_max_rtt_us,
-        ..ExecutorConfig::DEFAULT
-    };
+    let config = motion_config(&args)?;
     let store = FileStore::new(&args.plan_store);
     let core = Executor::<_, CAP, LA>::new(config, store).context("executor configuration")?;
     if let Some(issue) = core.startup_issue() {
-        eprintln!("stored plan not loaded: {issue:?}");
+        eprintln!("stored plan not loaded: {issue}");
     }
     let session = next_session(&args.plan_store)?;
     let mut endpoint = Endpoint::<_, CAP, LA, W>::new(core, LinkConfig::DEFAULT, session);

@@ -40,7 +40,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
                 if let Some(status) = self.ctrl_status.as_mut() {
                     status.state = mesopush_protocol::ctrl::CtrlState::Faulted;
                 }
-                if matches!(self.state, ExecState::Armed | ExecState::Running) {
+                if self.in_motion() {
                     self.fault(now_us, TrialFault::Controller(report), out);
                 }
             }

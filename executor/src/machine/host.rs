@@ -6,7 +6,7 @@ use crate::safety::{SafetyViolation, check_from_start, check_plan};
 use crate::store::PlanStore;
 use crate::stream::Streamer;
 use mesopush_protocol::flash::{FlashChunk, FlashHeader, FlashRejectReason, SafetyLimit};
-use mesopush_protocol::host::{CommandRejectReason, ExecState, Hello, TrialEventKind};
+use mesopush_protocol::host::{CommandRejectReason, ExecState, Hello, StagePoint, TrialEventKind};
 use mesopush_protocol::{ExecToCtrl, ExecToHost, HostToExec};
 
 /// The wire summary of a safety violation.
@@ -43,9 +43,16 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             HostToExec::FlashBegin(header) => self.flash_begin(header, out),
             HostToExec::FlashChunk(chunk) => self.flash_chunk(chunk, out),
             HostToExec::FlashCommit { plan_id } => self.flash_commit(*plan_id, out),
-            HostToExec::Arm { plan_id } => self.arm(now_us, *plan_id, out),
+            HostToExec::Arm { plan_id, start } => self.arm(now_us, *plan_id, *start, out),
             HostToExec::Start { plan_id } => self.start(now_us, *plan_id, out),
+            HostToExec::Abort if self.state == ExecState::Moving => self.stop_now(now_us, out),
             HostToExec::Abort => self.abort(now_us, out),
+            HostToExec::Goto { target } => self.goto(now_us, *target, out),
+            HostToExec::Home => {
+                let (x_nm, y_nm) = self.config.home_nm;
+                self.goto(now_us, StagePoint { x_nm, y_nm }, out)
+            }
+            HostToExec::Stop => self.stop_now(now_us, out),
             HostToExec::StatusQuery => {
                 push(out, Output::Host(ExecToHost::Status(self.status(now_us))))
             }
@@ -54,7 +61,9 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
 
     fn flash_begin<const N: usize>(&mut self, header: &FlashHeader, out: &mut Outputs<N>) {
         match self.state {
-            ExecState::Armed | ExecState::Running => return self.wrong_state(out),
+            ExecState::Armed | ExecState::Running | ExecState::Moving => {
+                return self.wrong_state(out);
+            }
             ExecState::Flashing => {}
             state => self.state_before_flash = state,
         }
@@ -71,7 +80,9 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
 
     fn flash_chunk<const N: usize>(&mut self, chunk: &FlashChunk, out: &mut Outputs<N>) {
         match self.state {
-            ExecState::Armed | ExecState::Running => return self.wrong_state(out),
+            ExecState::Armed | ExecState::Running | ExecState::Moving => {
+                return self.wrong_state(out);
+            }
             ExecState::Flashing => {}
             _ => {
                 let refusal = Refusal::Image(FlashRejectReason::NoFlashInProgress);
@@ -92,7 +103,9 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
     #[inline(never)]
     fn flash_commit<const N: usize>(&mut self, plan_id: u32, out: &mut Outputs<N>) {
         match self.state {
-            ExecState::Armed | ExecState::Running => return self.wrong_state(out),
+            ExecState::Armed | ExecState::Running | ExecState::Moving => {
+                return self.wrong_state(out);
+            }
             ExecState::Flashing => {}
             _ => {
                 let refusal = Refusal::Image(FlashRejectReason::NoFlashInProgress);
@@ -153,29 +166,33 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
         push(out, Output::Log(LogEvent::PlanRefused { plan_id, refusal }));
     }
 
-    fn arm<const N: usize>(&mut self, now_us: u64, plan_id: u32, out: &mut Outputs<N>) {
+    fn arm<const N: usize>(
+        &mut self,
+        now_us: u64,
+        plan_id: u32,
+        start: StagePoint,
+        out: &mut Outputs<N>,
+    ) {
         if !matches!(
             self.state,
             ExecState::PlanFlashed | ExecState::Done | ExecState::Aborted | ExecState::Faulted
         ) {
             return self.wrong_state(out);
         }
-        let Some(plan) = self.plan.as_ref().filter(|p| p.plan_id() == plan_id) else {
+        if self.plan.as_ref().is_none_or(|p| p.plan_id() != plan_id) {
             return self.plan_mismatch(out);
-        };
-        let clock_synced = self.sync.is_synced(now_us, &self.config);
-        let position = self.latest_position();
-        let ctrl_ready = self
-            .ctrl_status
-            .is_some_and(|s| !matches!(s.state, mesopush_protocol::ctrl::CtrlState::Faulted));
-        if !ctrl_ready && self.ctrl_status.is_some() {
-            push(out, Output::Ctrl(ExecToCtrl::ClearFault));
         }
-        let (Some(report), true, true) = (position, clock_synced, ctrl_ready) else {
-            let position_known = position.is_some();
-            let reason = CommandRejectReason::NotReady { clock_synced, position_known };
-            return reject(out, reason);
-        };
+        let Some(report) = self.ready_position(now_us, out) else { return };
+        let probe = StagePoint { x_nm: report.x_nm, y_nm: report.y_nm };
+        let tolerance_nm = self.config.start_tolerance_nm;
+        let (dx, dy) = (
+            i64::from(probe.x_nm) - i64::from(start.x_nm),
+            i64::from(probe.y_nm) - i64::from(start.y_nm),
+        );
+        if crate::plan::hypot_nm(dx, dy) > u64::from(tolerance_nm) {
+            return reject(out, CommandRejectReason::StartMismatch { probe, start, tolerance_nm });
+        }
+        let Some(plan) = self.plan.as_ref() else { return };
         if let Err(violation) = check_from_start(plan, &self.config, (report.x_nm, report.y_nm)) {
             let (step_index, limit) = limit_of(&violation);
             reject(out, CommandRejectReason::Unsafe { step_index, limit });
@@ -184,6 +201,30 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
         self.state = ExecState::Armed;
         self.last_fault = None;
         push(out, Output::Host(ExecToHost::Status(self.status(now_us))));
+    }
+
+    /// The probe's latest report when the executor can command motion now: clock synced,
+    /// position known, controller not faulted (else it is asked to clear the fault and the
+    /// command is refused `NotReady`; the host retries).
+    pub(super) fn ready_position<const N: usize>(
+        &mut self,
+        now_us: u64,
+        out: &mut Outputs<N>,
+    ) -> Option<mesopush_protocol::ctrl::PositionReport> {
+        let clock_synced = self.sync.is_synced(now_us, &self.config);
+        let position = self.latest_position();
+        let ctrl_ready = self
+            .ctrl_status
+            .is_some_and(|s| !matches!(s.state, mesopush_protocol::ctrl::CtrlState::Faulted));
+        if !ctrl_ready && self.ctrl_status.is_some() {
+            push(out, Output::Ctrl(ExecToCtrl::ClearFault));
+        }
+        if let (Some(report), true, true) = (position, clock_synced, ctrl_ready) {
+            return Some(report);
+        }
+        let position_known = position.is_some();
+        reject(out, CommandRejectReason::NotReady { clock_synced, position_known, ctrl_ready });
+        None
     }
 
     fn start<const N: usize>(&mut self, now_us: u64, plan_id: u32, out: &mut Outputs<N>) {
@@ -199,6 +240,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             let reason = CommandRejectReason::NotReady {
                 clock_synced: self.sync.is_synced(now_us, &self.config),
                 position_known: self.latest_position().is_some(),
+                ctrl_ready: self.ctrl_status.is_some(),
             };
             return reject(out, reason);
         };
@@ -235,7 +277,7 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
         }
     }
 
-    fn wrong_state<const N: usize>(&self, out: &mut Outputs<N>) {
+    pub(super) fn wrong_state<const N: usize>(&self, out: &mut Outputs<N>) {
         reject(out, CommandRejectReason::WrongState { state: self.state });
     }
 
@@ -245,6 +287,6 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
     }
 }
 
-fn reject<const N: usize>(out: &mut Outputs<N>, reason: CommandRejectReason) {
+pub(super) fn reject<const N: usize>(out: &mut Outputs<N>, reason: CommandRejectReason) {
     push(out, Output::Host(ExecToHost::CommandRejected(reason)));
 }

@@ -130,13 +130,11 @@ impl ExecRecorder {
         match e {
             LogEvent::Trial(t) if t.kind == TrialEventKind::Started => self.open(&t),
             LogEvent::Trial(t) => {
-                println!("{e:?}");
+                println!("{e}");
                 let (kind, detail) = match t.kind {
                     TrialEventKind::Done => ("done", format!("step {}", t.step_index)),
                     TrialEventKind::Aborted => ("aborted", format!("step {}", t.step_index)),
-                    TrialEventKind::Faulted(f) => {
-                        ("fault", format!("step {}: {f:?}", t.step_index))
-                    }
+                    TrialEventKind::Faulted(f) => ("fault", format!("step {}: {f}", t.step_index)),
                     TrialEventKind::Started => unreachable!("matched above"),
                 };
                 if let Some(rec) = self.trial.as_mut() {
@@ -146,15 +144,15 @@ impl ExecRecorder {
             }
             LogEvent::Frame(f) => self.on_frame(&f),
             other => {
-                println!("{other:?}");
+                println!("{other}");
                 let now = self.clock.now_us();
-                self.event(now, "executor", &format!("{other:?}"))
+                self.event(now, "executor", &other.to_string())
             }
         }
     }
 
     fn open(&mut self, t: &TrialEvent) -> io::Result<()> {
-        println!("{:?}", LogEvent::Trial(*t));
+        println!("{}", LogEvent::Trial(*t));
         self.close(false)?;
         let Some(c) = &self.config else { return Ok(()) };
         let dir = c.root.join(trial_dir_name(t.plan_id, t.exec_time_us));

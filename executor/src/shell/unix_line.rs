@@ -1,8 +1,10 @@
 //! The host line on a Unix socket, behaving like a serial line with a plug: the executor
-//! listens on a path; one host at a time connects (`mesopush flash`, `mesopush run`), and
-//! when it hangs up the line waits for the next. Bytes written while nobody is connected are
-//! lost, as on an unplugged cable (the reliable link above resynchronises with the next
-//! host's session).
+//! listens on a path; one host at a time is connected (`mesopush flash`, `run`, `rig`), and
+//! when it hangs up the line waits for the next. A host that connects while another is
+//! connected takes the line over, as re-plugging the cable would: that is how `mesopush rig
+//! stop` reaches an executor at once while `mesopush run` holds the line (the old host sees
+//! the line close). Bytes written while nobody is connected are lost, as on an unplugged
+//! cable (the reliable link above resynchronises with the next host's session).
 
 use super::port::{ByteRead, ByteWrite};
 use std::format;
@@ -78,6 +80,25 @@ impl UnixLineReader {
         }
     }
 
+    /// A host waiting to connect replaces the current one (whose stream is shut down).
+    fn take_over(&mut self) -> io::Result<()> {
+        match self.listener.accept() {
+            Ok((stream, _)) => {
+                if let Some(old) = self.reading.take() {
+                    let _ = old.shutdown(std::net::Shutdown::Both);
+                }
+                stream.set_nonblocking(false)?;
+                stream.set_read_timeout(Some(READ_TIMEOUT))?;
+                *self.current.lock().map_err(|_| io::Error::other("line lock poisoned"))? =
+                    Some(stream.try_clone()?);
+                self.reading = Some(stream);
+                Ok(())
+            }
+            Err(e) if e.kind() == ErrorKind::WouldBlock => Ok(()),
+            Err(e) => Err(e),
+        }
+    }
+
     fn hang_up(&mut self) {
         self.reading = None;
         if let Ok(mut c) = self.current.lock() {
@@ -88,6 +109,9 @@ impl UnixLineReader {
 
 impl ByteRead for UnixLineReader {
     fn read_bytes(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if self.reading.is_some() {
+            self.take_over()?;
+        }
         let Some(stream) = self.reading.as_mut() else {
             self.accept()?;
             return Ok(0);
@@ -169,6 +193,42 @@ mod tests {
             host.read_exact(&mut back).unwrap();
             assert_eq!(&back, b"ok");
         }
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn a_new_host_takes_the_line_over() {
+        let dir = tempdir();
+        let path = dir.join("host.sock");
+        let (mut r, mut w) = listen(&path).unwrap();
+        let mut first = UnixStream::connect(&path).unwrap();
+        first.write_all(b"a").unwrap();
+        let mut buf = [0u8; 16];
+        let mut got = Vec::new();
+        for _ in 0..500 {
+            let n = r.read_bytes(&mut buf).unwrap();
+            got.extend_from_slice(&buf[..n]);
+            if !got.is_empty() {
+                break;
+            }
+        }
+        assert_eq!(got, b"a");
+        let mut second = UnixStream::connect(&path).unwrap();
+        second.write_all(b"b").unwrap();
+        got.clear();
+        for _ in 0..500 {
+            let n = r.read_bytes(&mut buf).unwrap();
+            got.extend_from_slice(&buf[..n]);
+            if !got.is_empty() {
+                break;
+            }
+        }
+        assert_eq!(got, b"b", "the second host is heard");
+        w.write_bytes(b"k").unwrap();
+        let mut back = [0u8; 1];
+        second.read_exact(&mut back).unwrap();
+        assert_eq!(&back, b"k");
+        assert_eq!(first.read(&mut back).unwrap(), 0, "the first host's line closed");
         std::fs::remove_dir_all(dir).unwrap();
     }
 

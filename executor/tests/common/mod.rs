@@ -13,12 +13,14 @@ use mesopush_protocol::ctrl::{
     CtrlState, CtrlStatus, CtrlToExec, FaultCode, FaultReport, MoveSegment, PositionReport,
 };
 use mesopush_protocol::flash::{FlashHeader, PlanStep, image_chunks};
-use mesopush_protocol::host::{ExecToHost, Hello, HostToExec};
+use mesopush_protocol::host::{ExecToHost, Hello, HostToExec, StagePoint};
 
 pub const CAP: usize = 12 * 256;
 pub const LA: usize = 16;
 pub const OUT: usize = LA + 16;
 pub type Exec = Executor<MemStore<CAP>, CAP, LA>;
+/// Where the rig's scripted controller starts the probe, and so the plans' stated start.
+pub const START: StagePoint = StagePoint { x_nm: 1_000_000, y_nm: 1_000_000 };
 
 /// Image bytes of `steps`.
 pub fn image(steps: &[PlanStep]) -> std::vec::Vec<u8> {
@@ -199,7 +201,7 @@ impl Rig {
     pub fn with_store(config: ExecutorConfig, store: MemStore<CAP>) -> Self {
         Self {
             exec: Exec::new(config, store).expect("valid config"),
-            ctrl: ScriptedCtrl::new(7_000_000, (1_000_000, 1_000_000)),
+            ctrl: ScriptedCtrl::new(7_000_000, (START.x_nm, START.y_nm)),
             now_us: 1_000,
             step_us: 1_000,
             host_heartbeats: true,

@@ -12,7 +12,7 @@ use mesopush_firmware_sim::{
 };
 use mesopush_protocol::flash::{FlashHeader, PlanStep, image_chunks};
 use mesopush_protocol::host::{
-    CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, TrialEventKind,
+    CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, StagePoint, TrialEventKind,
 };
 use mesopush_protocol::{FRAME_BUF_LEN, FrameReader, Link, LinkConfig, encode_frame};
 
@@ -21,6 +21,11 @@ pub const LA: usize = 16;
 pub const W: usize = 32;
 pub const STEP_US: u64 = 100;
 pub const PROBE_START_NM: (f64, f64) = (2_000_000.0, 3_000_000.0);
+
+/// [`PROBE_START_NM`] as the plan's stated start.
+fn start_point() -> StagePoint {
+    StagePoint { x_nm: PROBE_START_NM.0 as i32, y_nm: PROBE_START_NM.1 as i32 }
+}
 
 /// A world whose peg never moves; frames are the probe position the camera saw.
 #[derive(Default)]
@@ -206,7 +211,7 @@ impl Bench {
                 let _ = self.host.send(HostToExec::FlashCommit { plan_id: 42 });
             }
             Phase::Arming => {
-                let _ = self.host.send(HostToExec::Arm { plan_id: 42 });
+                let _ = self.host.send(HostToExec::Arm { plan_id: 42, start: start_point() });
             }
             Phase::Running | Phase::Over => {}
         }

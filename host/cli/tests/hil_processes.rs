@@ -12,14 +12,13 @@
 //! target directory (`cargo test --workspace` builds it; alone, `cargo build -p
 //! mesopush-executor --profile test` first).
 
-use mesopush_trial::Trial;
-use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
+mod hil_common;
 
-const FWSIM: &str = env!("CARGO_BIN_EXE_mesopush-fwsim");
-const MESOPUSH: &str = env!("CARGO_BIN_EXE_mesopush");
+use hil_common::{FWSIM, MESOPUSH, run_cmd, start_rig};
+use mesopush_trial::Trial;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
 
 /// A 2 s push: the probe starts 70 µm right of the peg (Table II's start pose) and pushes
 /// it ≈ 330 µm left.
@@ -35,135 +34,17 @@ y_um = 1210.0
 theta_deg = 89.0
 "#;
 
-/// Kills the child (by its own handle) when dropped, so a failing test leaves no process.
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn executor_bin() -> PathBuf {
-    let exe = std::env::current_exe().expect("test path");
-    let profile_dir = exe.parent().and_then(Path::parent).expect("target/<profile>/deps");
-    let bin = profile_dir.join("mesopush-executor");
-    assert!(
-        bin.exists(),
-        "{} not found: build it first (cargo build -p mesopush-executor --profile test)",
-        bin.display()
-    );
-    bin
-}
-
-/// Reads the child's stdout lines until one starts with every prefix; returns them.
-fn read_banner(child: &mut Child, prefixes: &[&str], timeout: Duration) -> Vec<String> {
-    let out = child.stdout.take().expect("piped");
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(out).lines().map_while(Result::ok) {
-            if tx.send(line).is_err() {
-                break;
-            }
-        }
-    });
-    let mut found = vec![String::new(); prefixes.len()];
-    let t = Instant::now();
-    while found.iter().any(String::is_empty) {
-        let left = timeout.saturating_sub(t.elapsed());
-        let line = rx.recv_timeout(left).unwrap_or_else(|_| panic!("banner: got {found:?}"));
-        for (i, p) in prefixes.iter().enumerate() {
-            if let Some(v) = line.strip_prefix(p) {
-                found[i] = v.trim().to_string();
-            }
-        }
-    }
-    found
-}
-
-/// Runs a command to its end within `timeout` (killing it after).
-fn run_cmd(cmd: &mut Command, timeout: Duration) -> Output {
-    let child = cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("spawns");
-    let id = child.id();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    match rx.recv_timeout(timeout) {
-        Ok(out) => out.expect("output"),
-        Err(_) => {
-            let _ = Command::new("kill").arg(id.to_string()).status();
-            panic!("{cmd:?} did not finish within {timeout:?}");
-        }
-    }
-}
-
-fn wait_for(path: &Path, timeout: Duration) {
-    let t = Instant::now();
-    while !path.exists() {
-        assert!(t.elapsed() < timeout, "{} did not appear within {timeout:?}", path.display());
-        std::thread::sleep(Duration::from_millis(50));
-    }
-}
-
-/// The three processes on `plan` (seed 3): fwsim (placed at `plan`'s start), the executor,
-/// `mesopush flash` and `mesopush run`; returns `run`'s JSON report and the trial directory.
-fn hil_trial(d: &Path, plan: &Path, run_timeout: Duration) -> (serde_json::Value, PathBuf) {
-    let fw_dir = d.join("fw");
-    let mut fwsim = Killed(
-        Command::new(FWSIM)
-            .args(["--seed", "3", "--rt-priority", "70", "--plan"])
-            .arg(plan)
-            .arg("--run-dir")
-            .arg(&fw_dir)
-            .stdout(Stdio::piped())
-            .spawn()
-            .expect("mesopush-fwsim starts"),
-    );
-    let prefixes = ["controller:", "camera:", "background:", "truth:", "fixture origin:", "world:"];
-    let b = read_banner(&mut fwsim.0, &prefixes, Duration::from_secs(60));
-    assert!(b[0].starts_with("/dev/"), "controller device: {b:?}");
-    let host_sock = d.join("host.sock");
-    let host = format!("unix:{}", host_sock.display());
-    let rec = d.join("rec");
-    let _executor = Killed(
-        Command::new(executor_bin())
-            .args(["run", "--host-port", &host, "--ctrl-port", &b[0], "--camera", &b[1]])
-            .args(["--fixture-origin-um", &b[4], "--sync-max-rtt-us", "20000"])
-            .args(["--rt-priority", "80", "--record-dir"])
-            .arg(&rec)
-            .arg("--plan-store")
-            .arg(d.join("plan.bin"))
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("mesopush-executor starts"),
-    );
-    wait_for(&host_sock, Duration::from_secs(30));
-
-    let flash = run_cmd(
-        Command::new(MESOPUSH).arg("flash").arg(plan).args(["--port", &host, "--json"]),
-        Duration::from_secs(120),
-    );
-    let text = String::from_utf8_lossy(&flash.stdout);
-    assert!(flash.status.success(), "flash: {text} {}", String::from_utf8_lossy(&flash.stderr));
-    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
-    assert!(v["step_count"].as_u64().unwrap() >= 1, "{v}");
-
+/// The three processes on `plan`: fwsim, the executor, `mesopush flash` and `mesopush run`;
+/// returns `run`'s JSON report, its exit code and the trial directory.
+fn hil_trial(d: &Path, plan: &Path, run_timeout: Duration) -> (serde_json::Value, i32, PathBuf) {
+    let rig = start_rig(d, plan);
+    rig.flash(plan);
     let out = d.join("trial");
-    let run = run_cmd(
-        Command::new(MESOPUSH)
-            .args(["run", "--port", &host, "--json", "--plan"])
-            .arg(plan)
-            .arg("--record-dir")
-            .arg(&rec)
-            .args(["--background", &b[2], "--truth", &b[3], "--sim-world", &b[5], "--out"])
-            .arg(&out),
-        run_timeout,
-    );
+    let run = rig.run(plan, &out, run_timeout);
     let text = String::from_utf8_lossy(&run.stdout);
-    assert!(run.status.success(), "run: {text} {}", String::from_utf8_lossy(&run.stderr));
-    (serde_json::from_str(&text).unwrap(), out)
+    let code = run.status.code().unwrap_or(-1);
+    assert!(code == 0 || code == 1, "run: {text} {}", String::from_utf8_lossy(&run.stderr));
+    (serde_json::from_str(&text).unwrap(), code, out)
 }
 
 #[test]
@@ -172,8 +53,9 @@ fn fwsim_executor_flash_and_run_as_separate_processes() {
     let d = tmp.path();
     let plan = d.join("push.toml");
     std::fs::write(&plan, PLAN).unwrap();
-    let (v, out) = hil_trial(d, &plan, Duration::from_secs(240));
+    let (v, code, out) = hil_trial(d, &plan, Duration::from_secs(240));
     check_report(&v, &out);
+    assert_eq!(code, 1, "not inserted is a negative verdict: exit status 1");
 }
 
 /// Table II (≈ 52 s at the rig's speed) through the three processes: the whole plan is
@@ -186,9 +68,10 @@ fn fwsim_executor_flash_and_run_as_separate_processes() {
 fn table2_runs_to_the_end_through_separate_processes() {
     let tmp = tempfile::tempdir().unwrap();
     let plan = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../plans/table2.toml");
-    let (v, out) = hil_trial(tmp.path(), &plan, Duration::from_secs(300));
+    let (v, code, out) = hil_trial(tmp.path(), &plan, Duration::from_secs(300));
     assert_eq!(v["state"], "done", "{v}");
     assert!(v["inserted"].is_boolean(), "a tracked final pose is judged: {v}");
+    assert_eq!(code, if v["inserted"] == true { 0 } else { 1 }, "exit status follows the verdict");
     assert!(v["frames"].as_u64().unwrap() >= 500, "{v}");
     assert!(v["tracked"].as_u64().unwrap() >= 500, "{v}");
     let truth = &v["truth"];
@@ -278,9 +161,11 @@ fn demo_realtime_runs_to_the_end_with_every_frame_recorded() {
         .arg(&out)
         .output()
         .unwrap();
-    assert!(o.status.success(), "seed 3: {}", String::from_utf8_lossy(&o.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout)
+        .unwrap_or_else(|_| panic!("seed 3: {}", String::from_utf8_lossy(&o.stderr)));
     assert_eq!(v["state"], "done", "seed 3: {v}");
+    assert_eq!(v["inserted"], false, "seed 3: a 400 µm push does not insert: {v}");
+    assert_eq!(o.status.code(), Some(1), "not inserted: exit status 1");
     assert_eq!(v["segments_applied"], v["segments_expected"], "seed 3: {v}");
     let frames = v["frames"].as_u64().unwrap();
     assert!(frames >= 50, "seed 3: 2 s at 30 Hz: {frames} frames");

@@ -12,7 +12,8 @@ use mesopush_protocol::ctrl::{
 use mesopush_protocol::flash::{FlashChunk, FlashHeader, FlashRejectReason, PlanStep, SafetyLimit};
 use mesopush_protocol::host::{
     CommandRejectReason, ExecState, ExecStatus, ExecToHost, FrameStamp, Hello, HostToExec,
-    ProbeTelemetry, TrialEvent, TrialEventKind, TrialFault,
+    MotionEvent, MotionEventKind, ProbeTelemetry, StagePoint, TrialEvent, TrialEventKind,
+    TrialFault,
 };
 use mesopush_protocol::{FRAME_BUF_LEN, Frame, FrameKind, MaxSize, encode_frame};
 use serde::Serialize;
@@ -52,12 +53,20 @@ pub fn host_to_exec() -> Vec<(&'static str, HostToExec)> {
         ("host.flash_begin", HostToExec::FlashBegin(flash_header())),
         ("host.flash_chunk", HostToExec::FlashChunk(flash_chunk())),
         ("host.flash_commit", HostToExec::FlashCommit { plan_id: 7 }),
-        ("host.arm", HostToExec::Arm { plan_id: 7 }),
+        ("host.arm", HostToExec::Arm { plan_id: 7, start: point() }),
         ("host.start", HostToExec::Start { plan_id: 7 }),
         ("host.abort", HostToExec::Abort),
         ("host.status_query", HostToExec::StatusQuery),
         ("host.heartbeat", HostToExec::Heartbeat { host_time_us: 1_700_000_000_000_000 }),
+        ("host.goto", HostToExec::Goto { target: StagePoint { x_nm: -1, y_nm: 3_050_000 } }),
+        ("host.home", HostToExec::Home),
+        ("host.stop", HostToExec::Stop),
     ]
+}
+
+/// A stage position used inside several samples.
+pub fn point() -> StagePoint {
+    StagePoint { x_nm: 2_950_000, y_nm: -49_000_000 }
 }
 
 fn trial(kind: TrialEventKind) -> ExecToHost {
@@ -107,7 +116,9 @@ fn exec_statuses() -> Vec<(String, ExecToHost)> {
         ExecState::Done,
         ExecState::Aborted,
         ExecState::Faulted,
+        ExecState::Moving,
     ];
+    let ctrl_states = [CtrlState::Idle, CtrlState::Moving, CtrlState::Stopped, CtrlState::Faulted];
     for (i, state) in states.into_iter().enumerate() {
         let last_fault = (state == ExecState::Faulted).then_some(TrialFault::ClockSyncLost);
         let status = ExecStatus {
@@ -117,6 +128,8 @@ fn exec_statuses() -> Vec<(String, ExecToHost)> {
             step_count: 40,
             step_index: i as u32,
             last_fault,
+            probe: (i > 0).then_some(point()),
+            ctrl_state: (i > 0).then_some(ctrl_states[i % 4]),
         };
         out.push((format!("exec.status.{state:?}").to_lowercase(), ExecToHost::Status(status)));
     }
@@ -154,7 +167,30 @@ pub fn exec_to_host() -> Vec<(String, ExecToHost)> {
             "unsafe_start",
             CommandRejectReason::Unsafe { step_index: None, limit: SafetyLimit::Workspace },
         ),
-        ("not_ready", CommandRejectReason::NotReady { clock_synced: true, position_known: false }),
+        (
+            "not_ready",
+            CommandRejectReason::NotReady {
+                clock_synced: true,
+                position_known: false,
+                ctrl_ready: true,
+            },
+        ),
+        (
+            "start_mismatch",
+            CommandRejectReason::StartMismatch {
+                probe: StagePoint { x_nm: 3_050_000, y_nm: 3_050_000 },
+                start: point(),
+                tolerance_nm: 5_000,
+            },
+        ),
+        (
+            "outside_workspace",
+            CommandRejectReason::OutsideWorkspace {
+                target: point(),
+                min: StagePoint { x_nm: 0, y_nm: 0 },
+                max: StagePoint { x_nm: 10_000_000, y_nm: 10_000_000 },
+            },
+        ),
     ];
     for (name, reason) in rejects {
         out.push((format!("exec.command_rejected.{name}"), ExecToHost::CommandRejected(reason)));
@@ -165,6 +201,16 @@ pub fn exec_to_host() -> Vec<(String, ExecToHost)> {
     out.push(("exec.trial.aborted".into(), trial(TrialEventKind::Aborted)));
     for (name, fault) in all_trial_faults() {
         out.push((format!("exec.trial.faulted.{name}"), trial(TrialEventKind::Faulted(fault))));
+    }
+    let motions = [
+        ("started", MotionEventKind::Started { target: point() }),
+        ("arrived", MotionEventKind::Arrived { at: point() }),
+        ("stopped", MotionEventKind::Stopped),
+        ("faulted", MotionEventKind::Faulted(TrialFault::Controller(fault_report()))),
+    ];
+    for (name, kind) in motions {
+        let event = MotionEvent { exec_time_us: 4_200_000, kind };
+        out.push((format!("exec.motion.{name}"), ExecToHost::Motion(event)));
     }
     out.push((
         "exec.frame".into(),

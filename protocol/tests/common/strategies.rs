@@ -9,7 +9,8 @@ use mesopush_protocol::flash::{
 };
 use mesopush_protocol::host::{
     CommandRejectReason, ExecState, ExecStatus, ExecToHost, FrameStamp, Hello, HostToExec,
-    ProbeTelemetry, TrialEvent, TrialEventKind, TrialFault,
+    MotionEvent, MotionEventKind, ProbeTelemetry, StagePoint, TrialEvent, TrialEventKind,
+    TrialFault,
 };
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -41,17 +42,25 @@ pub fn flash_chunk() -> impl Strategy<Value = FlashChunk> {
     )
 }
 
+pub fn stage_point() -> impl Strategy<Value = StagePoint> {
+    (any::<i32>(), any::<i32>()).prop_map(|(x_nm, y_nm)| StagePoint { x_nm, y_nm })
+}
+
 pub fn host_to_exec() -> impl Strategy<Value = HostToExec> {
     prop_oneof![
         hello().prop_map(HostToExec::Hello),
         flash_header().prop_map(HostToExec::FlashBegin),
         flash_chunk().prop_map(HostToExec::FlashChunk),
         any::<u32>().prop_map(|plan_id| HostToExec::FlashCommit { plan_id }),
-        any::<u32>().prop_map(|plan_id| HostToExec::Arm { plan_id }),
+        (any::<u32>(), stage_point())
+            .prop_map(|(plan_id, start)| HostToExec::Arm { plan_id, start }),
         any::<u32>().prop_map(|plan_id| HostToExec::Start { plan_id }),
         Just(HostToExec::Abort),
         Just(HostToExec::StatusQuery),
         any::<u64>().prop_map(|host_time_us| HostToExec::Heartbeat { host_time_us }),
+        stage_point().prop_map(|target| HostToExec::Goto { target }),
+        Just(HostToExec::Home),
+        Just(HostToExec::Stop),
     ]
 }
 
@@ -109,6 +118,7 @@ pub fn exec_state() -> impl Strategy<Value = ExecState> {
         Just(ExecState::Done),
         Just(ExecState::Aborted),
         Just(ExecState::Faulted),
+        Just(ExecState::Moving),
     ]
 }
 
@@ -156,10 +166,23 @@ fn exec_status() -> impl Strategy<Value = ExecStatus> {
         any::<u32>(),
         any::<u32>(),
         proptest::option::of(trial_fault()),
+        proptest::option::of(stage_point()),
+        proptest::option::of(ctrl_state()),
     )
-        .prop_map(|(exec_time_us, state, plan_id, step_count, step_index, last_fault)| {
-            ExecStatus { exec_time_us, state, plan_id, step_count, step_index, last_fault }
-        })
+        .prop_map(
+            |(exec_time_us, state, plan_id, step_count, step_index, last_fault, probe, ctrl)| {
+                ExecStatus {
+                    exec_time_us,
+                    state,
+                    plan_id,
+                    step_count,
+                    step_index,
+                    last_fault,
+                    probe,
+                    ctrl_state: ctrl,
+                }
+            },
+        )
 }
 
 fn trial_event() -> impl Strategy<Value = TrialEvent> {
@@ -187,10 +210,30 @@ fn command_reject() -> impl Strategy<Value = CommandRejectReason> {
         Just(CommandRejectReason::Incompatible),
         (any::<Option<u32>>(), safety_limit())
             .prop_map(|(step_index, limit)| CommandRejectReason::Unsafe { step_index, limit }),
-        (any::<bool>(), any::<bool>()).prop_map(|(clock_synced, position_known)| {
-            CommandRejectReason::NotReady { clock_synced, position_known }
+        (any::<bool>(), any::<bool>(), any::<bool>()).prop_map(
+            |(clock_synced, position_known, ctrl_ready)| CommandRejectReason::NotReady {
+                clock_synced,
+                position_known,
+                ctrl_ready
+            }
+        ),
+        (stage_point(), stage_point(), any::<u32>()).prop_map(|(probe, start, tolerance_nm)| {
+            CommandRejectReason::StartMismatch { probe, start, tolerance_nm }
+        }),
+        (stage_point(), stage_point(), stage_point()).prop_map(|(target, min, max)| {
+            CommandRejectReason::OutsideWorkspace { target, min, max }
         }),
     ]
+}
+
+fn motion_event() -> impl Strategy<Value = MotionEvent> {
+    let kind = prop_oneof![
+        stage_point().prop_map(|target| MotionEventKind::Started { target }),
+        stage_point().prop_map(|at| MotionEventKind::Arrived { at }),
+        Just(MotionEventKind::Stopped),
+        trial_fault().prop_map(MotionEventKind::Faulted),
+    ];
+    (any::<u64>(), kind).prop_map(|(exec_time_us, kind)| MotionEvent { exec_time_us, kind })
 }
 
 pub fn exec_to_host() -> impl Strategy<Value = ExecToHost> {
@@ -226,6 +269,7 @@ pub fn exec_to_host() -> impl Strategy<Value = ExecToHost> {
         trial_event().prop_map(ExecToHost::Trial),
         frame,
         telemetry,
+        motion_event().prop_map(ExecToHost::Motion),
     ]
 }
 

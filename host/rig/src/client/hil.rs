@@ -6,11 +6,13 @@
 
 use super::complete::{Completed, Completion, complete_trial, read_rows};
 use super::hostlink::{HostPort, drive, fresh_session_id};
-use super::session::{HostSession, SessionEnd, SessionGoal, plan_steps};
+use super::session::{HostSession, SessionEnd, SessionGoal, plan_start, plan_steps};
 use crate::Error;
 use mesopush_core::geom::Vec2;
 use mesopush_core::stats::percentile_i64;
-use mesopush_protocol::host::{ExecToHost, ProbeTelemetry, TrialEvent, TrialEventKind};
+use mesopush_protocol::host::{
+    CommandRejectReason, ExecToHost, ProbeTelemetry, StagePoint, TrialEvent, TrialEventKind,
+};
 use mesopush_sim::Plan;
 use mesopush_trial::{FrameRow, PoseRow, TrialState};
 use mesopush_vision::Calibration;
@@ -26,11 +28,14 @@ pub const RECORDING_TIMEOUT: Duration = Duration::from_secs(20);
 /// Uploads `plan` to the executor at `addr`; returns the steps accepted.
 pub fn flash(addr: &str, plan: &Plan) -> Result<u32, Error> {
     let mut port = HostPort::open(addr)?;
-    let mut s = HostSession::new(plan, SessionGoal::Flash, fresh_session_id())?;
+    // The start is stated when arming (`run`); flashing does not use it.
+    let unused = StagePoint { x_nm: 0, y_nm: 0 };
+    let mut s = HostSession::new(plan, SessionGoal::Flash, unused, fresh_session_id())?;
     match drive(&mut s, &mut port, addr, FLASH_TIMEOUT, &mut |_, _| {})? {
         SessionEnd::Accepted { step_count } => Ok(step_count),
         SessionEnd::Refused(why) => Err(Error::invalid("flash", why)),
-        SessionEnd::Trial(k) => Err(Error::invalid("flash", format!("unexpected trial end {k:?}"))),
+        SessionEnd::Rejected(r) => Err(Error::invalid("flash", r.to_string())),
+        other => Err(Error::invalid("flash", format!("unexpected answer {other:?}"))),
     }
 }
 
@@ -115,7 +120,8 @@ struct TruthRow {
 pub fn run(o: &RunOptions) -> Result<RunReport, Error> {
     let wall = Instant::now();
     let mut port = HostPort::open(&o.addr)?;
-    let mut s = HostSession::new(&o.plan, SessionGoal::Run, fresh_session_id())?;
+    let start = plan_start(&o.plan, o.fixture_origin_um)?;
+    let mut s = HostSession::new(&o.plan, SessionGoal::Run, start, fresh_session_id())?;
     let (mut telemetry, mut started): (Vec<ProbeTelemetry>, Option<TrialEvent>) = (vec![], None);
     let plan_s = o.plan.travel_um() / o.plan.speed_um_s;
     let timeout = Duration::from_secs_f64(plan_s + 60.0);
@@ -128,10 +134,18 @@ pub fn run(o: &RunOptions) -> Result<RunReport, Error> {
     let (state, reason) = match end {
         SessionEnd::Trial(TrialEventKind::Done) => (TrialState::Done, None),
         SessionEnd::Trial(TrialEventKind::Aborted) => (TrialState::Aborted, None),
-        SessionEnd::Trial(TrialEventKind::Faulted(f)) => {
-            (TrialState::Faulted, Some(format!("{f:?}")))
-        }
+        SessionEnd::Trial(TrialEventKind::Faulted(f)) => (TrialState::Faulted, Some(f.to_string())),
         SessionEnd::Refused(r) => return Err(Error::invalid("run", r)),
+        SessionEnd::Rejected(r @ CommandRejectReason::StartMismatch { .. }) => {
+            let p = o.plan.probe_start();
+            let hint = format!(
+                "{r}: the plan starts at fixture ({:.1}, {:.1}) µm; `mesopush rig goto --plan \
+                 PLAN --port {}` moves the probe there",
+                p.x, p.y, o.addr
+            );
+            return Err(Error::invalid("run", hint));
+        }
+        SessionEnd::Rejected(r) => return Err(Error::invalid("run", r.to_string())),
         other => return Err(Error::invalid("run", format!("unexpected end {other:?}"))),
     };
     let Some(t0) = started else {

@@ -6,6 +6,7 @@
 //! - [`hostlink`]: that session over the line to a running `mesopush-executor` process.
 //! - [`hil`]: the hardware-in-the-loop workflow's host side (`mesopush flash`, `mesopush
 //!   run`) and the error figures against the firmware simulator's truth file.
+//! - [`rig`]: rig commands between trials (`mesopush rig status|goto|home|stop`).
 //! - [`complete`]: completing a trial recorded by the executor into a trial log;
 //!   [`schedule`]: the setpoint schedule rebuilt from the flashed plan; [`tracking`]: a
 //!   tracked frame as a pose.csv row.
@@ -18,6 +19,7 @@
 pub mod complete;
 pub mod hil;
 pub mod hostlink;
+pub mod rig;
 pub mod schedule;
 pub mod session;
 pub mod tracking;

@@ -1,12 +1,16 @@
 //! The host's side of the executor's line as a sans-IO state machine: handshake, flash the
-//! plan in chunks, arm (retrying while the executor is not ready), start, heartbeat, and wait
-//! for the trial's end. Bytes in, bytes out, time passed in — the same code drives the
-//! simulated-time loop, the real-time loop and `mesopush flash` / `mesopush run`.
+//! plan in chunks, arm at the plan's stated start (retrying while the executor is not
+//! ready), start, heartbeat, and wait for the trial's end — or one rig command between
+//! trials (status, goto, home, stop) and its answer. Bytes in, bytes out, time passed in —
+//! the same code drives the simulated-time loop, the real-time loop and `mesopush flash` /
+//! `run` / `rig`.
 
 use crate::Error;
+use mesopush_core::geom::Vec2;
 use mesopush_protocol::flash::{FlashHeader, PlanStep, image_chunks};
 use mesopush_protocol::host::{
-    CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, TrialEventKind,
+    CommandRejectReason, ExecState, ExecStatus, ExecToHost, Hello, HostToExec, MotionEventKind,
+    StagePoint, TrialEventKind,
 };
 use mesopush_protocol::units::{um_s_to_nm_s, um_to_nm};
 use mesopush_protocol::{FRAME_BUF_LEN, FrameReader, Link, LinkConfig, LinkStats, encode_frame};
@@ -33,6 +37,21 @@ pub enum SessionGoal {
     Run,
     /// Flash, arm, start.
     FlashAndRun,
+    /// One rig command between trials.
+    Command(RigCommand),
+}
+
+/// A rig command between trials.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RigCommand {
+    /// Ask for the status (state, absolute position, last fault).
+    Status,
+    /// Move the probe to a stage position and wait until it is there.
+    Goto(StagePoint),
+    /// Move the probe to the executor's home position.
+    Home,
+    /// Stop the probe now.
+    Stop,
 }
 
 /// How the session ended.
@@ -43,10 +62,17 @@ pub enum SessionEnd {
         /// Steps in it.
         step_count: u32,
     },
-    /// The executor refused something; the text says what and why.
+    /// The executor refused the upload or the handshake; the text says what and why.
     Refused(String),
+    /// The executor refused a command (arm, start, goto, ...); its `Display` says why and
+    /// what to do.
+    Rejected(CommandRejectReason),
     /// The trial ended.
     Trial(TrialEventKind),
+    /// The executor's status (answer to `Status` and `Stop`).
+    Status(ExecStatus),
+    /// A goto or home ended (arrived, stopped or faulted).
+    Motion(MotionEventKind),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,6 +82,8 @@ enum Phase {
     Arming,
     Starting,
     Running,
+    Command,
+    Moving,
     Over,
 }
 
@@ -67,6 +95,7 @@ pub struct HostSession {
     goal: SessionGoal,
     image: Vec<u8>,
     plan_id: u32,
+    start: StagePoint,
     phase: Phase,
     next_action_us: u64,
     next_heartbeat_us: u64,
@@ -92,25 +121,59 @@ pub fn plan_steps(plan: &Plan) -> Result<Vec<PlanStep>, Error> {
         .collect()
 }
 
+/// Where `plan` starts in the stage's frame: its `probe_start_um` (fixture frame) plus the
+/// fixture origin in stage coordinates (`offset_um`, the stage registration), in nm —
+/// refused, naming the value, when it does not fit the wire.
+pub fn plan_start(plan: &Plan, offset_um: Vec2) -> Result<StagePoint, Error> {
+    let p = plan.probe_start() + offset_um;
+    Ok(StagePoint {
+        x_nm: um_to_nm("plan start x + stage offset x", p.x)?,
+        y_nm: um_to_nm("plan start y + stage offset y", p.y)?,
+    })
+}
+
 /// The plan's flash image and its id (the image's CRC: the same plan, the same id).
 pub fn plan_image(plan: &Plan) -> Result<(u32, Vec<u8>), Error> {
     let image: Vec<u8> = plan_steps(plan)?.iter().flat_map(|s| s.to_image_bytes()).collect();
     let header = FlashHeader::for_image(0, &image)
-        .map_err(|e| Error::invalid("plan image", format!("{e:?}")))?;
+        .map_err(|e| Error::invalid("plan image", e.to_string()))?;
     Ok((header.image_crc32.max(1), image))
 }
 
 impl HostSession {
-    /// A session for `plan` towards `goal`; `session_id` is the link session (differs from
+    /// A session for `plan` towards `goal`; `start` is the plan's start in the stage frame
+    /// ([`plan_start`]), stated when arming; `session_id` is the link session (differs from
     /// the last one's).
-    pub fn new(plan: &Plan, goal: SessionGoal, session_id: u16) -> Result<Self, Error> {
+    pub fn new(
+        plan: &Plan,
+        goal: SessionGoal,
+        start: StagePoint,
+        session_id: u16,
+    ) -> Result<Self, Error> {
         let (plan_id, image) = plan_image(plan)?;
-        Ok(Self {
+        Ok(Self::with(goal, image, plan_id, start, session_id))
+    }
+
+    /// A session that sends one rig command and waits for its answer (a goto: its end).
+    pub fn command(command: RigCommand, session_id: u16) -> Self {
+        let origin = StagePoint { x_nm: 0, y_nm: 0 };
+        Self::with(SessionGoal::Command(command), Vec::new(), 0, origin, session_id)
+    }
+
+    fn with(
+        goal: SessionGoal,
+        image: Vec<u8>,
+        plan_id: u32,
+        start: StagePoint,
+        session_id: u16,
+    ) -> Self {
+        Self {
             link: Link::new(LinkConfig::DEFAULT, session_id),
             reader: FrameReader::new(),
             goal,
             image,
             plan_id,
+            start,
             phase: Phase::Hello,
             next_action_us: 0,
             next_heartbeat_us: 0,
@@ -118,7 +181,7 @@ impl HostSession {
             end: None,
             outbox: VecDeque::new(),
             inbox: Vec::new(),
-        })
+        }
     }
 
     /// The host end's link counters (corrupt frames, duplicates, retransmissions, ...).
@@ -204,9 +267,19 @@ impl HostSession {
             Phase::Flashing => self.send_flash(),
             Phase::Arming => {
                 self.arm_attempts += 1;
-                self.send(HostToExec::Arm { plan_id: self.plan_id });
+                self.send(HostToExec::Arm { plan_id: self.plan_id, start: self.start });
             }
-            Phase::Starting | Phase::Running | Phase::Over => {}
+            Phase::Command => {
+                self.arm_attempts += 1;
+                let SessionGoal::Command(command) = self.goal else { return };
+                self.send(match command {
+                    RigCommand::Status => HostToExec::StatusQuery,
+                    RigCommand::Goto(target) => HostToExec::Goto { target },
+                    RigCommand::Home => HostToExec::Home,
+                    RigCommand::Stop => HostToExec::Stop,
+                });
+            }
+            Phase::Starting | Phase::Running | Phase::Moving | Phase::Over => {}
         }
     }
 
@@ -230,13 +303,21 @@ impl HostSession {
             (Phase::Hello, ExecToHost::HelloReply { accepted: true, .. }) => {
                 self.phase = match self.goal {
                     SessionGoal::Run => Phase::Arming,
+                    SessionGoal::Command(_) => Phase::Command,
                     _ => Phase::Flashing,
                 };
                 self.next_action_us = now_us;
             }
-            (Phase::Hello, ExecToHost::HelloReply { accepted: false, hello }) => self.finish(
-                SessionEnd::Refused(format!("executor speaks an incompatible protocol: {hello:?}")),
-            ),
+            (Phase::Hello, ExecToHost::HelloReply { accepted: false, hello }) => {
+                self.finish(SessionEnd::Refused(format!(
+                    "the executor speaks protocol {} (schema {:08x}), this host {} (schema \
+                     {:08x}); install matching builds",
+                    hello.protocol_version,
+                    hello.schema_hash,
+                    Hello::CURRENT.protocol_version,
+                    Hello::CURRENT.schema_hash
+                )))
+            }
             (Phase::Flashing, ExecToHost::FlashAccepted { step_count, .. }) => {
                 if self.goal == SessionGoal::Flash {
                     self.finish(SessionEnd::Accepted { step_count: *step_count });
@@ -246,16 +327,22 @@ impl HostSession {
                 }
             }
             (Phase::Flashing, ExecToHost::FlashRejected { reason, .. }) => {
-                self.finish(SessionEnd::Refused(format!("plan refused: {reason:?}")))
+                self.finish(SessionEnd::Refused(format!("plan refused: {reason}")))
             }
-            (Phase::Arming, ExecToHost::CommandRejected(CommandRejectReason::NotReady { .. }))
-                if self.arm_attempts < ARM_ATTEMPTS =>
-            {
+            (
+                Phase::Arming | Phase::Command,
+                ExecToHost::CommandRejected(CommandRejectReason::NotReady { .. }),
+            ) if self.arm_attempts < ARM_ATTEMPTS => {
                 self.next_action_us = now_us + ARM_RETRY_US;
             }
-            (Phase::Arming | Phase::Starting, ExecToHost::CommandRejected(r)) => {
-                self.finish(SessionEnd::Refused(format!("command refused: {r:?}")))
+            (Phase::Arming | Phase::Starting | Phase::Command, ExecToHost::CommandRejected(r)) => {
+                self.finish(SessionEnd::Rejected(*r))
             }
+            (Phase::Command, ExecToHost::Status(s)) => self.finish(SessionEnd::Status(*s)),
+            (Phase::Command | Phase::Moving, ExecToHost::Motion(m)) => match m.kind {
+                MotionEventKind::Started { .. } => self.phase = Phase::Moving,
+                kind => self.finish(SessionEnd::Motion(kind)),
+            },
             (Phase::Arming, ExecToHost::Status(s)) if s.state == ExecState::Armed => {
                 self.phase = Phase::Starting;
                 self.send(HostToExec::Start { plan_id: self.plan_id });

@@ -20,6 +20,6 @@ pub type InProcessEndpoint = Endpoint<MemStore<CAP>, CAP, LA, EW>;
 /// An executor with `config` whose links use the session id `session`.
 pub fn endpoint(config: ExecutorConfig, session: u16) -> Result<InProcessEndpoint, Error> {
     let core = Executor::new(config, MemStore::new())
-        .map_err(|e| Error::invalid("executor config", format!("{e:?}")))?;
+        .map_err(|e| Error::invalid("executor config", e.to_string()))?;
     Ok(Endpoint::new(core, LinkConfig::DEFAULT, session))
 }

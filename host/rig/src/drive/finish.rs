@@ -51,8 +51,11 @@ fn end_state(
     match (session, end) {
         (_, Some((_, TrialEventKind::Done))) => (TrialState::Done, None),
         (_, Some((_, TrialEventKind::Aborted))) => (TrialState::Aborted, None),
-        (_, Some((_, TrialEventKind::Faulted(f)))) => (TrialState::Faulted, Some(format!("{f:?}"))),
+        (_, Some((_, TrialEventKind::Faulted(f)))) => (TrialState::Faulted, Some(f.to_string())),
         (Some(SessionEnd::Refused(r)), _) => (TrialState::Aborted, Some(r.clone())),
+        (Some(SessionEnd::Rejected(r)), _) => {
+            (TrialState::Aborted, Some(format!("command refused: {r}")))
+        }
         _ => (TrialState::Incomplete, Some("the trial did not end in time".to_string())),
     }
 }
@@ -69,6 +72,8 @@ pub(crate) fn finish(
     let final_pose = final_pose(&rec);
     let inserted = final_pose.map(|p| fixture.inserted(&Vec2::new(p.x_um, p.y_um)));
     let (state, reason) = end_state(done.end.as_ref(), rec.end);
+    let refused = matches!(done.end, Some(SessionEnd::Refused(_) | SessionEnd::Rejected(_)))
+        && rec.end.is_none();
     let (err_um, err_rad, compared) =
         track_error(&rec.tracked, truth, done.camera_latency_us).unwrap_or((0.0, 0.0, 0));
     let tracked_poses: Vec<Pose> = rec
@@ -92,6 +97,7 @@ pub(crate) fn finish(
         dir,
         state,
         reason,
+        refused,
         inserted,
         final_pose,
         frames: rec.frames,

@@ -32,6 +32,7 @@ use mesopush_executor::shell::port::{CHUNK_BYTES, Chunk};
 use mesopush_executor::{CameraFrame, LogEvent, StampedFrame};
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
 use mesopush_protocol::FRAME_BUF_LEN;
+use mesopush_protocol::host::StagePoint;
 use mesopush_protocol::units::us_to_s;
 use std::path::Path;
 use std::sync::Arc;
@@ -136,7 +137,8 @@ pub fn run_realtime(
         ServedController::new(master, node, camera).map_err(|e| Error::io("pty master", e))?;
     let mut world = prep.world;
     let painter = PainterThread::spawn(Painter::for_world(&mut world));
-    let mut host = HostSession::new(&spec.plan, SessionGoal::FlashAndRun, 7_001)?;
+    let start = StagePoint { x_nm: prep.probe_start_nm.0, y_nm: prep.probe_start_nm.1 };
+    let mut host = HostSession::new(&spec.plan, SessionGoal::FlashAndRun, start, 7_001)?;
     let mut relay = Relay { rec: rec_tx, lost: 0, images: Vec::new(), stamped_waiting: Vec::new() };
     let limits = prep.limits;
     let mut lp = Loop { ctrl: &mut ctrl, world: &mut world, host: &mut host, relay: &mut relay };

@@ -191,7 +191,7 @@ impl Recorder {
                     TrialEventKind::Aborted => ("aborted", format!("step {}", t.step_index)),
                     TrialEventKind::Faulted(f) => {
                         self.out.faults_detected += 1;
-                        ("fault", format!("step {}: {f:?}", t.step_index))
+                        ("fault", format!("step {}: {f}", t.step_index))
                     }
                 };
                 if t.kind != TrialEventKind::Started {
@@ -203,11 +203,12 @@ impl Recorder {
                 self.event(now, "plan_accepted", format!("plan {plan_id}, {step_count} steps"))
             }
             LogEvent::PlanRefused { plan_id, refusal } => {
-                self.event(now, "plan_refused", format!("plan {plan_id}: {refusal:?}"))
+                self.event(now, "plan_refused", format!("plan {plan_id:08x}: {refusal}"))
             }
             LogEvent::ArmRefused { plan_id, violation } => {
-                self.event(now, "arm_refused", format!("plan {plan_id}: {violation:?}"))
+                self.event(now, "arm_refused", format!("plan {plan_id:08x}: {violation}"))
             }
+            LogEvent::Motion(m) => self.event(m.exec_time_us, "goto", m.kind.to_string()),
             LogEvent::Frame(_) => Ok(()), // recorded with its image
         }
     }

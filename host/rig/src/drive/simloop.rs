@@ -121,7 +121,7 @@ impl SimLoop {
         let now = self.now_us;
         let logs = &mut self.logs;
         let mut log = |e: &LogEvent| logs.push(*e);
-        let full = |e: mesopush_executor::ExecError| Error::invalid("executor", format!("{e:?}"));
+        let full = |e: mesopush_executor::ExecError| Error::invalid("executor", e.to_string());
         while let Some(b) = self.lines[0].recv(now) {
             self.node.on_bytes(now, &b);
         }
@@ -193,18 +193,32 @@ impl SimLoop {
         let new: Vec<(u64, NodeEvent)> = self.node.events[self.node_events_seen..].to_vec();
         self.node_events_seen = self.node.events.len();
         for (t, e) in new {
-            let kind = match e {
-                NodeEvent::InjectedStall => "injected_stall",
-                NodeEvent::InjectedLimitSwitch => "injected_limit_switch",
-                NodeEvent::Rebooted { .. } => "injected_reboot",
-                NodeEvent::LinkDown => "ctrl_link_down",
-                NodeEvent::OutboxOverflow => "ctrl_outbox_overflow",
+            let (kind, detail) = match e {
+                NodeEvent::InjectedStall => {
+                    ("injected_stall", "the world stalled the stage (injected)".to_string())
+                }
+                NodeEvent::InjectedLimitSwitch => (
+                    "injected_limit_switch",
+                    "the world tripped a limit switch (injected)".to_string(),
+                ),
+                NodeEvent::Rebooted { boot_count } => (
+                    "injected_reboot",
+                    format!("the world rebooted the controller (injected; boot {boot_count})"),
+                ),
+                NodeEvent::LinkDown => (
+                    "ctrl_link_down",
+                    "the controller's link gave up and was restarted".to_string(),
+                ),
+                NodeEvent::OutboxOverflow => (
+                    "ctrl_outbox_overflow",
+                    "the controller dropped a message (its outbox was full)".to_string(),
+                ),
                 // The controller's own fault (it halts the stage and reports it): where the
                 // executor's stop bound starts for a stall or a limit switch.
-                NodeEvent::Ctrl(CtrlEvent::Faulted(_)) => "ctrl_fault",
+                NodeEvent::Ctrl(CtrlEvent::Faulted(code)) => ("ctrl_fault", code.to_string()),
                 NodeEvent::Ctrl(_) => continue,
             };
-            self.send(RecMsg::Event(t, kind.into(), format!("{e:?}")))?;
+            self.send(RecMsg::Event(t, kind.into(), detail))?;
         }
         Ok(())
     }

@@ -46,6 +46,9 @@ pub struct TrialReport {
     pub state: TrialState,
     /// Why (faults, refusals).
     pub reason: Option<String>,
+    /// The executor refused the plan or the arm (nothing ran; `reason` says why): invalid
+    /// input, not a negative verdict.
+    pub refused: bool,
     /// Whether the final pose lies in the goal (absent: no unflagged frame after the end).
     pub inserted: Option<bool>,
     /// The last unflagged tracked pose exposed after the trial's end (the peg at rest).

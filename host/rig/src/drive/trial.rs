@@ -11,6 +11,7 @@ use super::spec::{ClockMode, TrialProgress, TrialReport, TrialSpec};
 use crate::Error;
 use crate::client::session::{HostSession, SessionGoal};
 use crate::plant::world_file::validated_faults;
+use mesopush_protocol::host::StagePoint;
 use mesopush_protocol::units::us_to_s;
 use std::path::Path;
 
@@ -38,7 +39,8 @@ fn run_simulated(
     let prep = prepare(spec, out_dir)?;
     let faults = validated_faults(&spec.world.spec.faults)?;
     let session_id = 7_000 + prep.rng.fork(11).below(1000) as u16;
-    let host = HostSession::new(&spec.plan, SessionGoal::FlashAndRun, session_id)?;
+    let start = StagePoint { x_nm: prep.probe_start_nm.0, y_nm: prep.probe_start_nm.1 };
+    let host = HostSession::new(&spec.plan, SessionGoal::FlashAndRun, start, session_id)?;
     let (tx, rx) = crossbeam_channel::bounded(256);
     let recorder = prep.recorder;
     let rec = std::thread::spawn(move || recorder.run(rx));

@@ -3,14 +3,29 @@
 //! writes its frames back, moves the world to the stage's position and polls the camera.
 //! Used by the in-process real-time loop (the drive module's) and by the `mesopush-fwsim`
 //! process (`Fwsim`).
+//!
+//! Writes never hold the loop up: frames go to a writer thread through a bounded queue
+//! ([`TX_QUEUE_FRAMES`]), like a UART's transmit FIFO; the writer waits for the line as long
+//! as it takes. When the executor does not read for a while (a starved reader thread),
+//! frames that find the queue full are dropped and counted
+//! ([`ServedController::tx_dropped_frames`]); the reliable link resends them. Regression
+//! (issue 19): the loop wrote itself, with the master's 1 ms timeout, and a write that
+//! timed out ended `mesopush-fwsim` (`Operation timed out`), so the executor then saw a
+//! silent controller; a write that found some room but not enough could block the loop.
 
 use super::controller::Controller;
+use crossbeam_channel::{Receiver, Sender, TrySendError, bounded};
 use mesopush_firmware_sim::World;
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
 use mesopush_protocol::FRAME_BUF_LEN;
 use serialport::{SerialPort, TTYPort};
 use std::io::{self, Read, Write};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
+
+/// Frames the writer thread's queue holds (≈ 0.5 s of the controller's reports).
+pub const TX_QUEUE_FRAMES: usize = 128;
 
 /// What the executor's end of the line looks like.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -31,6 +46,38 @@ pub struct ServedController {
     pub camera: SimCamera,
     buf: [u8; 512],
     out: Box<[u8; FRAME_BUF_LEN]>,
+    tx: Sender<Vec<u8>>,
+    writer_failed: Arc<AtomicBool>,
+    tx_dropped_frames: u64,
+}
+
+/// The writer thread: writes each queued frame whole, waiting for the line; a frame the
+/// line cannot take because nobody has the slave open is dropped (the node resends).
+/// Ends when the queue's sender is dropped, or on another write error (`failed` set).
+fn write_frames(mut port: TTYPort, rx: &Receiver<Vec<u8>>, failed: &AtomicBool) {
+    for frame in rx {
+        let mut off = 0;
+        while off < frame.len() {
+            match port.write(&frame[off..]) {
+                Ok(n) => off += n,
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::TimedOut
+                            | io::ErrorKind::WouldBlock
+                            | io::ErrorKind::Interrupted
+                    ) => {}
+                Err(e) if no_peer(&e) => {
+                    std::thread::sleep(Duration::from_millis(1));
+                    break;
+                }
+                Err(_) => {
+                    failed.store(true, Ordering::Relaxed);
+                    return;
+                }
+            }
+        }
+    }
 }
 
 /// `EIO`: the pty master's read when no process has the slave open.
@@ -48,7 +95,33 @@ impl ServedController {
         master
             .set_timeout(Duration::from_millis(1))
             .map_err(|e| io::Error::other(e.to_string()))?;
-        Ok(Self { master, node, camera, buf: [0; 512], out: Box::new([0; FRAME_BUF_LEN]) })
+        let writer = master.try_clone_native().map_err(|e| io::Error::other(e.to_string()))?;
+        let (tx, rx) = bounded(TX_QUEUE_FRAMES);
+        let writer_failed = Arc::new(AtomicBool::new(false));
+        let failed = writer_failed.clone();
+        std::thread::Builder::new()
+            .name("fwsim-ctrl-tx".into())
+            .spawn(move || write_frames(writer, &rx, &failed))?;
+        Ok(Self {
+            master,
+            node,
+            camera,
+            buf: [0; 512],
+            out: Box::new([0; FRAME_BUF_LEN]),
+            tx,
+            writer_failed,
+            tx_dropped_frames: 0,
+        })
+    }
+
+    /// Frames dropped because the writer's queue was full (the executor did not read).
+    pub fn tx_dropped_frames(&self) -> u64 {
+        self.tx_dropped_frames
+    }
+
+    /// Frames waiting for the writer.
+    pub fn tx_queued_frames(&self) -> usize {
+        self.tx.len()
     }
 
     /// One round at `now_us`: line, controller, world, camera. Returns the line's state and
@@ -74,12 +147,17 @@ impl ServedController {
         };
         self.node.on_bytes(now_us, &self.buf[..n]);
         self.node.tick(now_us);
+        if self.writer_failed.load(Ordering::Relaxed) {
+            return Err(io::Error::other("writing to the pty master failed"));
+        }
         if state == LineState::Connected {
             while let Some(f) = self.node.transmit(now_us, &mut self.out[..]) {
-                match self.master.write_all(f) {
+                match self.tx.try_send(f.to_vec()) {
                     Ok(()) => {}
-                    Err(e) if no_peer(&e) => return Ok((LineState::NoPeer, None)),
-                    Err(e) => return Err(e),
+                    Err(TrySendError::Full(_)) => self.tx_dropped_frames += 1,
+                    Err(TrySendError::Disconnected(_)) => {
+                        return Err(io::Error::other("the pty writer thread ended"));
+                    }
                 }
             }
         }

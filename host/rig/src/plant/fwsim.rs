@@ -105,6 +105,9 @@ pub struct FwsimSummary {
     pub segments_applied: u64,
     /// Jam episodes: the needle deflected beyond the limit (`RigWorld::jam_events`).
     pub jams: u64,
+    /// Controller frames dropped because the executor did not read the line for a while
+    /// (the send buffer was full; the link resent them).
+    pub line_frames_dropped: u64,
 }
 
 /// A simulator ready to serve.
@@ -260,6 +263,7 @@ impl Fwsim {
             frames_render_dropped: self.render_dropped,
             segments_applied: applied_segments(&self.ctrl.node.events).0,
             jams: u64::try_from(self.world.jam_events().len()).unwrap_or(u64::MAX),
+            line_frames_dropped: self.ctrl.tx_dropped_frames(),
         })
     }
 

@@ -84,12 +84,14 @@ fn run(args: Args) -> anyhow::Result<()> {
     let summary = sim.serve(&AtomicBool::new(false))?;
     println!(
         "line closed: {} frames ({} dropped, renderer behind; {} not sent), {} segments \
-         applied, {} physics advances jammed",
+         applied, {} physics advances jammed, {} controller frames dropped (the executor \
+         did not read the line)",
         summary.frames,
         summary.frames_render_dropped,
         summary.frames_unsent,
         summary.segments_applied,
-        summary.jams
+        summary.jams,
+        summary.line_frames_dropped
     );
     Ok(())
 }

@@ -2,6 +2,8 @@
 //! II) through the whole loop on the firmware simulator — flash, executor, controller over a
 //! pseudo-terminal, simulated stage, world and camera, recorder, tracker — and prints the
 //! verdict, writing the trial directory and a trajectory figure (tracked vs simulated).
+//! Exit status: 0 done and inserted; 1 not inserted, not judged or faulted; 2 a plan the
+//! executor refused (unsafe) or invalid input.
 
 use anyhow::Context;
 use clap::Args;
@@ -98,6 +100,10 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let report = run_trial(&spec, &out, &mut progress)
         .with_context(|| format!("running the trial into {}", out.display()))?;
     bar.finish_and_clear();
+    if report.refused {
+        let why = report.reason.as_deref().unwrap_or("refused");
+        anyhow::bail!("the executor refused the plan: {why} (trial directory {})", out.display());
+    }
     let fig = figure(&report, &plan, &report.dir)?;
     if args.json {
         let mut v = serde_json::to_value(&report)?;
@@ -105,10 +111,10 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<()> {
         v["figure"] = serde_json::json!(fig);
         v["seed"] = serde_json::json!(args.seed);
         println!("{}", serde_json::to_string_pretty(&v)?);
-        return Ok(());
+    } else {
+        print_summary(&report, &fig, args.seed);
     }
-    print_summary(&report, &fig, args.seed);
-    Ok(())
+    Ok(crate::verdict::trial_verdict(report.state, report.inserted)?)
 }
 
 fn print_summary(r: &TrialReport, fig: &Path, seed: u64) {

@@ -1,7 +1,9 @@
 //! `mesopush run --port P`: arms and starts the plan flashed into a running
 //! `mesopush-executor`, follows the trial to its end, then completes the executor's
 //! recording into a trial log (trial.json, probe.csv, pose.csv) and prints the verdict.
-//! Thin over `mesopush_rig::client::hil::run`.
+//! Thin over `mesopush_rig::client::hil::run`. Exit status: 0 done and inserted; 1 not
+//! inserted, not judged, faulted or aborted; 2 refused (the probe not at the plan's start,
+//! an unsafe plan, the executor not ready) or invalid input.
 
 use anyhow::Context;
 use clap::Args;
@@ -89,7 +91,7 @@ pub(crate) fn run(args: &RunArgs) -> anyhow::Result<()> {
     } else {
         print_summary(&report);
     }
-    Ok(())
+    Ok(crate::verdict::trial_verdict(report.trial.state, report.trial.inserted)?)
 }
 
 fn print_summary(r: &RunReport) {

@@ -14,6 +14,7 @@ mod cmd_lcp;
 mod cmd_plan;
 mod cmd_render;
 mod cmd_replay;
+mod cmd_rig;
 mod cmd_robustness;
 mod cmd_run;
 mod cmd_sim;
@@ -58,12 +59,15 @@ enum Command {
     Flash(cmd_flash::FlashArgs),
     /// Arm, start and record the flashed plan on a running executor; print the verdict.
     Run(cmd_run::RunArgs),
+    /// Rig commands between trials on a running executor: status, goto, home, stop.
+    Rig(cmd_rig::RigArgs),
     /// Convert recordings of real pushes (Zhou & Mason 2017, ...) into trial logs.
     Import(cmd_import::ImportArgs),
 }
 
 /// Runs the command; errors are printed as one `error: …` line (with their causes) and exit
-/// code 1, never as a panic or a backtrace dump.
+/// code 2 (a negative verdict: `verdict: …` and exit code 1), never as a panic or a
+/// backtrace dump.
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     match run(cli) {
@@ -94,6 +98,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Robustness(args) => cmd_robustness::run(&args),
         Command::Flash(args) => cmd_flash::run(&args),
         Command::Run(args) => cmd_run::run(&args),
+        Command::Rig(args) => cmd_rig::run(&args),
         Command::Import(args) => cmd_import::run(&args),
     }
 }

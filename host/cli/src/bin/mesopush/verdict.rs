@@ -43,3 +43,17 @@ impl std::fmt::Display for Negative {
 }
 
 impl std::error::Error for Negative {}
+
+/// The exit verdict of a trial: `Ok` only for a trial that ran to its end and was judged
+/// inserted; a fault, an abort, an unfinished trial, a peg not inserted or not judged is a
+/// negative verdict (exit status 1).
+pub(crate) fn trial_verdict(state: TrialState, inserted: Option<bool>) -> Result<(), Negative> {
+    match (state, inserted) {
+        (TrialState::Done, Some(true)) => Ok(()),
+        (TrialState::Done, Some(false)) => Err(Negative("the peg was NOT inserted".into())),
+        (TrialState::Done, None) => {
+            Err(Negative("not judged: no tracked pose of the peg at rest".into()))
+        }
+        (state, _) => Err(Negative(format!("the trial ended {state:?}, not done"))),
+    }
+}
