@@ -14,7 +14,8 @@ pub mod files {
     pub const FRAMES: &str = "frames.csv";
     /// Events (faults, aborts, verdicts).
     pub const EVENTS: &str = "events.csv";
-    /// Directory of PNG frames.
+    /// Directory of PNG frames (trials recorded before the frame store; read, no longer
+    /// written: frames go to `frames.tif`, `mesopush_framestore`).
     pub const FRAME_DIR: &str = "frames";
     /// The raw recording's marker, written atomically when the directory is closed.
     pub const RECORDING_JSON: &str = "recording.json";
@@ -47,7 +48,8 @@ pub struct FrameRow {
     pub probe_x_um: Option<f64>,
     /// Probe y at the capture instant, µm.
     pub probe_y_um: Option<f64>,
-    /// PNG file relative to the trial directory; empty when not stored.
+    /// Where the image is: `frames.tif#PAGE` (the trial's frame store) or, in trials recorded
+    /// before it, a PNG file relative to the trial directory; empty when not stored.
     pub file: Option<String>,
 }
 

@@ -5,9 +5,10 @@
 //! trial, `RECORD_DIR/trial-<plan_id as 8 hex digits>-<t0 exec µs>/`, from the trial's
 //! `Started` event until `tail_us` after its end (frames of the peg at rest):
 //!
-//! - `frames.csv`, `frames/NNNNNN.png`, `events.csv` — exactly the trial-log format
-//!   (`docs/trial-log.md`, version 1): times in µs since the trial's start, the probe at
-//!   exposure in the fixture frame (stage µm − the fixture origin given to the executor);
+//! - `frames.csv`, `frames.tif` (the frame store, `mesopush_framestore`: one page per frame,
+//!   `frames.csv`'s `file` = `frames.tif#PAGE`), `events.csv` — exactly the trial-log format
+//!   (`docs/trial-log.md`): times in µs since the trial's start, the probe at exposure in
+//!   the fixture frame (stage µm − the fixture origin given to the executor);
 //! - `recording.json` — written atomically when the directory is closed: which trial, the
 //!   executor clock's epoch on `CLOCK_MONOTONIC`, counts, how it ended.
 //!
@@ -23,12 +24,13 @@ use crate::recording::{
     EventRow, FrameRow, RECORDING_FORMAT, RECORDING_FORMAT_VERSION, Recording, files,
 };
 use crossbeam_channel::{Receiver, select};
+use mesopush_framestore::{PageMeta, STORE_FILE, StoreWriter, page_ref};
 use mesopush_protocol::host::{TrialEvent, TrialEventKind};
 use mesopush_protocol::units::nm_to_um;
 use std::collections::VecDeque;
 use std::fs::{self, File};
-use std::io::{self, BufWriter};
-use std::path::{Path, PathBuf};
+use std::io;
+use std::path::PathBuf;
 use std::string::{String, ToString};
 use std::sync::Arc;
 use std::time::Duration;
@@ -59,6 +61,8 @@ struct TrialRec {
     plan_id: u32,
     frames: csv::Writer<File>,
     events: csv::Writer<File>,
+    /// The frame store, created with the first image.
+    store: Option<StoreWriter>,
     index: u64,
     recorded: u64,
     gap_dropped: u64,
@@ -156,7 +160,7 @@ impl ExecRecorder {
         self.close(false)?;
         let Some(c) = &self.config else { return Ok(()) };
         let dir = c.root.join(trial_dir_name(t.plan_id, t.exec_time_us));
-        fs::create_dir_all(dir.join(files::FRAME_DIR))?;
+        fs::create_dir_all(&dir)?;
         let create = |name: &str| -> io::Result<csv::Writer<File>> {
             Ok(csv::Writer::from_writer(File::create(dir.join(name))?))
         };
@@ -168,6 +172,7 @@ impl ExecRecorder {
             plan_id: t.plan_id,
             frames,
             events,
+            store: None,
             index: 0,
             recorded: 0,
             gap_dropped: 0,
@@ -204,8 +209,10 @@ impl ExecRecorder {
         }
         let index = rec.index;
         rec.index += 1;
+        let rel = |t: u64| t as i64 - rec.t0_us as i64;
+        let t_capture_us = rel(f.stamp.frame_stamp_us);
         let file = match &image {
-            Some(img) if !f.black => Some(write_png(&rec.dir, index, img)?),
+            Some(img) if !f.black => Some(store_frame(rec, index, t_capture_us, img)?),
             _ => None,
         };
         let missing = image.is_none();
@@ -219,7 +226,7 @@ impl ExecRecorder {
         let row = FrameRow {
             index,
             frame_seq: f.stamp.frame_seq,
-            t_capture_us: Some(rel(f.stamp.frame_stamp_us)),
+            t_capture_us: Some(t_capture_us),
             t_arrival_us: image.as_ref().map(|i| rel(i.arrival_us)),
             stamp_source: source.to_string(),
             dropped: missing && !f.black,
@@ -241,6 +248,9 @@ impl ExecRecorder {
         for w in [&mut rec.frames, &mut rec.events] {
             w.flush()?;
             w.get_ref().sync_all()?;
+        }
+        if let Some(store) = rec.store.take() {
+            store.finish().map_err(io::Error::other)?;
         }
         let (end_kind, end_t_us) = match rec.end {
             Some((t, k)) => (format!("{k:?}"), Some(t as i64 - rec.t0_us as i64)),
@@ -266,13 +276,21 @@ impl ExecRecorder {
     }
 }
 
-fn write_png(dir: &Path, index: u64, img: &FrameImage) -> io::Result<String> {
-    use image::ImageEncoder;
-    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
-    let rel = format!("frames/{index:06}.png");
-    let file = BufWriter::new(File::create(dir.join(&rel))?);
-    PngEncoder::new_with_quality(file, CompressionType::Fast, FilterType::Sub)
-        .write_image(&img.pixels, img.width_px, img.height_px, image::ExtendedColorType::L8)
-        .map_err(io::Error::other)?;
-    Ok(rel)
+/// Appends the image to the trial's frame store (created with the first image); returns
+/// `frames.csv`'s `file` cell.
+fn store_frame(
+    rec: &mut TrialRec,
+    index: u64,
+    t_capture_us: i64,
+    img: &FrameImage,
+) -> io::Result<String> {
+    if rec.store.is_none() {
+        let store = StoreWriter::create(&rec.dir.join(STORE_FILE)).map_err(io::Error::other)?;
+        rec.store = Some(store);
+    }
+    let store = rec.store.as_mut().expect("created above");
+    let meta = PageMeta { index, t_capture_us: Some(t_capture_us) };
+    let page =
+        store.push(meta, img.width_px, img.height_px, &img.pixels).map_err(io::Error::other)?;
+    Ok(page_ref(page))
 }

@@ -108,7 +108,8 @@ fn check_report(v: &serde_json::Value, out: &Path) {
     // trial's start, and the recorder keeps a row without an image for each (regression: CI
     // failed here on `frames[0].file` being None, the trial itself was fine).
     let first = trial.frames.iter().find_map(|f| f.file.as_ref()).expect("a stored frame");
-    assert!(pngs >= 30 && out.join(first).exists(), "{pngs} images, first {first}");
+    let image = mesopush_vision::TrialFrames::new(out).load(first);
+    assert!(pngs >= 30 && image.is_ok(), "{pngs} images, first {first}: {image:?}");
     assert!(trial.events.iter().any(|e| e.kind == "started"));
     assert!(trial.events.iter().any(|e| e.kind == "done"));
     assert!(trial.events.iter().any(|e| e.kind == "verdict"));
@@ -169,7 +170,7 @@ fn demo_realtime_runs_to_the_end_with_every_frame_recorded() {
     assert_eq!(v["segments_applied"], v["segments_expected"], "seed 3: {v}");
     let frames = v["frames"].as_u64().unwrap();
     assert!(frames >= 50, "seed 3: 2 s at 30 Hz: {frames} frames");
-    let pngs = std::fs::read_dir(out.join("frames")).unwrap().count() as u64;
+    let pngs = mesopush_vision::FrameSet::open(&out, None).unwrap().len() as u64;
     let lost = v["records_lost"].as_u64().unwrap();
     assert_eq!(pngs + lost, frames, "seed 3: every frame recorded with its image or counted lost");
 }

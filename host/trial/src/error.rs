@@ -42,6 +42,9 @@ pub enum Error {
     /// Rendering, tracking or a frame source failed.
     #[error(transparent)]
     Vision(#[from] mesopush_vision::Error),
+    /// The trial's frame store could not be written or read.
+    #[error(transparent)]
+    FrameStore(#[from] mesopush_framestore::Error),
 }
 
 impl Error {

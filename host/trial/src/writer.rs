@@ -10,6 +10,7 @@ use super::records::{EventRow, FrameRow, PoseRow, ProbeRow};
 use super::{Trial, files};
 use crate::Error;
 use mesopush_core::fsx::write_atomic;
+use mesopush_framestore::{PageMeta, STORE_FILE, StoreWriter, page_ref};
 use serde::Serialize;
 use std::fs::{self, File};
 use std::io::BufWriter;
@@ -57,6 +58,8 @@ pub struct TrialWriter {
     frames: CsvFile,
     events: CsvFile,
     pose: Option<CsvFile>,
+    /// The frame store, created with the first frame image.
+    store: Option<StoreWriter>,
     rows_since_flush: usize,
     /// Probe rows written, and whether they carry `cmd_theta_rad` (set by the first).
     probe_rows: u64,
@@ -77,12 +80,13 @@ impl TrialWriter {
                 format!("{} already holds a trial; refusing to overwrite it", dir.display()),
             ));
         }
-        fs::create_dir_all(dir.join(files::FRAME_DIR)).map_err(|e| io_err(dir, e))?;
+        fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
         let w = Self {
             probe: CsvFile::create(dir.join(files::PROBE))?,
             frames: CsvFile::create(dir.join(files::FRAMES))?,
             events: CsvFile::create(dir.join(files::EVENTS))?,
             pose: None,
+            store: None,
             dir: dir.to_path_buf(),
             meta,
             rows_since_flush: 0,
@@ -153,12 +157,21 @@ impl TrialWriter {
         self.counted()
     }
 
-    /// Stores a frame image as `frames/NNNNNN.png`; returns the relative file name.
-    pub fn frame_png(&mut self, index: u64, png: &[u8]) -> Result<String, Error> {
-        let rel = format!("{}/{index:06}.png", files::FRAME_DIR);
-        let path = self.dir.join(&rel);
-        fs::write(&path, png).map_err(|e| io_err(&path, e))?;
-        Ok(rel)
+    /// Appends an 8-bit grey frame image (row-major pixels) to the trial's frame store
+    /// (`frames.tif`, created with the first frame); returns `frames.csv`'s `file` cell for
+    /// it, `frames.tif#PAGE`.
+    pub fn frame_image(
+        &mut self,
+        meta: PageMeta,
+        width_px: u32,
+        height_px: u32,
+        pixels: &[u8],
+    ) -> Result<String, Error> {
+        if self.store.is_none() {
+            self.store = Some(StoreWriter::create(&self.dir.join(STORE_FILE))?);
+        }
+        let store = self.store.as_mut().expect("created above");
+        Ok(page_ref(store.push(meta, width_px, height_px, pixels)?))
     }
 
     /// Appends an event (flushed at once: events are rare and matter most after a crash).
@@ -183,6 +196,9 @@ impl TrialWriter {
         self.events.sync()?;
         if let Some(p) = self.pose.as_mut() {
             p.sync()?;
+        }
+        if let Some(store) = self.store.take() {
+            store.finish()?;
         }
         self.meta.outcome = outcome;
         self.write_meta()?;

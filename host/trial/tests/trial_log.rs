@@ -6,6 +6,10 @@ use mesopush_trial::{
     EventRow, FrameRow, Outcome, PoseRow, ProbeRow, Trial, TrialMeta, TrialState, TrialWriter,
 };
 
+fn page_meta(index: u64, t_us: i64) -> mesopush_framestore::PageMeta {
+    mesopush_framestore::PageMeta { index, t_capture_us: Some(t_us) }
+}
+
 fn meta() -> TrialMeta {
     let mut m = TrialMeta::new("trial-0001", "test", Part::default_peg());
     m.plan = Some(Plan::table2());
@@ -43,7 +47,7 @@ fn rows_written_come_back_and_the_outcome_is_final() {
         black: false,
         probe_x_um: Some(101.0),
         probe_y_um: Some(5.0),
-        file: Some(w.frame_png(0, b"not really a png").unwrap()),
+        file: Some(w.frame_image(page_meta(0, 1_000), 4, 2, &[9, 8, 7, 6, 5, 4, 3, 2]).unwrap()),
     };
     w.frame(&frame).unwrap();
     w.event(&EventRow { t_us: 0, kind: "started".into(), detail: String::new() }).unwrap();
@@ -69,7 +73,9 @@ fn rows_written_come_back_and_the_outcome_is_final() {
     assert_eq!(t.pose.as_deref(), Some(&[pose][..]));
     assert_eq!(t.events.len(), 1);
     assert_eq!(t.commanded_path().len(), 200);
-    assert!(path.join("frames/000000.png").exists());
+    assert_eq!(t.frames[0].file.as_deref(), Some("frames.tif#0"));
+    let mut store = mesopush_framestore::FrameStore::open(&path.join("frames.tif")).unwrap();
+    assert_eq!(store.read(0).unwrap().pixels, [9, 8, 7, 6, 5, 4, 3, 2]);
     let header = std::fs::read_to_string(path.join("probe.csv")).unwrap();
     assert!(header.starts_with("t_us,cmd_x_um,cmd_y_um,rep_x_um,rep_y_um\n"), "{header}");
 }

@@ -23,6 +23,9 @@ pub enum Error {
         /// What is wrong, with a line or field when known.
         message: String,
     },
+    /// A frame store could not be read (names the file and the page).
+    #[error(transparent)]
+    Store(#[from] mesopush_framestore::Error),
     /// An input value is invalid; the message names the value and the rule it breaks.
     #[error("invalid {what}: {message}")]
     Invalid {

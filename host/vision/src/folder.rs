@@ -114,7 +114,7 @@ pub const POSE_CSV_HEADER: [&str; 9] = [
 ];
 
 /// One pose.csv row (empty cells for what is unknown).
-pub fn pose_csv_row(stem: &str, t_us: Option<u64>, m: &Measurement) -> [String; 9] {
+pub fn pose_csv_row(stem: &str, t_us: Option<i64>, m: &Measurement) -> [String; 9] {
     let f = |v: Option<f64>, digits: usize| v.map_or(String::new(), |v| format!("{v:.digits$}"));
     let pose = m.pose;
     let tip = m.probe_tip_um;

@@ -3,7 +3,7 @@
 //! peg's pose and the probe tip from frames by background subtraction, thresholding, probe
 //! removal by its geometry and an ellipse fit to the peg's second moments.
 //!
-//! May depend on: `mesopush-core` (geometry) only. It knows images, optics and outlines, not
+//! May depend on: `mesopush-core` (geometry) and `mesopush-framestore` (frames on disk) only. It knows images, optics and outlines, not
 //! the simulator, trial logs or the rig: callers hand it polygons and poses.
 
 pub mod assess;
@@ -15,6 +15,7 @@ pub mod capture_v4l;
 pub mod demo;
 pub mod error;
 pub mod folder;
+pub mod frame_source;
 pub mod moments;
 pub mod morph;
 pub mod needle;
@@ -34,6 +35,7 @@ pub use assess::{Flag, Measurement};
 pub use background::Background;
 pub use calib::Calibration;
 pub use error::Error;
+pub use frame_source::{FrameSet, TrialFrames};
 pub use needle::NeedleSettings;
 pub use probe::ProbeSettings;
 pub use render::{GroundTruth, RenderSettings, Rendered, Renderer, render};

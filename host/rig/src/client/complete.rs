@@ -1,6 +1,6 @@
 //! Completing a trial recorded by another process: the executor (`mesopush-executor run
-//! --record-dir`) wrote the raw frame part of the trial log — frames.csv, frames/*.png,
-//! events.csv, recording.json — and the host, which knows the plan, the calibration and what
+//! --record-dir`) wrote the raw frame part of the trial log — frames.csv, the frame store
+//! frames.tif (or frames/*.png from older executors), events.csv, recording.json — and the host, which knows the plan, the calibration and what
 //! it heard on the host line, adds the rest: trial.json, probe.csv (the setpoint schedule
 //! rebuilt from the plan, with the controller's position reports), pose.csv (the host's
 //! tracker on every recorded frame) and the verdict. See docs/trial-log.md.
@@ -17,7 +17,7 @@ use mesopush_sim::{Fixture, Model, Plan};
 use mesopush_trial::{
     CalibrationRecord, EventRow, FrameRow, Outcome, PoseRow, ProbeRow, Trial, TrialMeta, TrialState,
 };
-use mesopush_vision::{Calibration, TrackSettings, Tracker};
+use mesopush_vision::{Calibration, TrackSettings, Tracker, TrialFrames};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -82,8 +82,8 @@ fn tracked_poses(
     c: &Completion,
     frames: &[FrameRow],
 ) -> Result<(Vec<TrackedRow>, Option<f64>), Error> {
-    let bg_path = dir.join("background.png");
-    let bg = load_gray(&bg_path)?;
+    let bg = load_gray(&dir.join("background.png"))?;
+    let mut images = TrialFrames::new(dir);
     let settings = TrackSettings {
         calibration: c.calibration,
         theta_hint_rad: c.plan.peg_start_pose().theta_rad,
@@ -97,7 +97,7 @@ fn tracked_poses(
         // dropped and black frames in between widen the tracker's jump tolerance
         let periods = last_index.map_or(1, |i| f.index.saturating_sub(i));
         last_index = Some(f.index);
-        let image = load_gray(&dir.join(file))?;
+        let image = images.load(file)?;
         let m = tracker.track_after(&image, u32::try_from(periods).unwrap_or(u32::MAX))?;
         let Some(row) = pose_row(t, f.index, &m) else { continue };
         out.push((row, m.is_flagged()));
@@ -161,7 +161,7 @@ fn probe_rows(c: &Completion) -> Result<Vec<ProbeRow>, Error> {
     Ok(rows)
 }
 
-/// Completes the recorded directory `dir` (which holds frames.csv, frames/, events.csv and
+/// Completes the recorded directory `dir` (which holds frames.csv, frames.tif, events.csv and
 /// `background.png`, the empty fixture's frame) into a trial log.
 pub fn complete_trial(dir: &Path, c: &Completion) -> Result<Completed, Error> {
     let frames: Vec<FrameRow> = read_rows(&dir.join("frames.csv"))?;

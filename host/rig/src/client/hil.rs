@@ -242,7 +242,8 @@ fn wait_for_recording(dir: &Path) -> Result<PathBuf, Error> {
     Ok(dir.to_path_buf())
 }
 
-/// Copies a recording (flat files and `frames/`) into `out`, which must not hold a trial.
+/// Copies a recording (flat files, among them the frame store, and the `frames/` PNGs of
+/// older recordings) into `out`, which must not hold a trial.
 fn copy_dir(from: &Path, out: &Path) -> Result<PathBuf, Error> {
     if out.join("trial.json").exists() || out.join("frames.csv").exists() {
         let msg = format!("{} already holds a trial; refusing to overwrite it", out.display());
@@ -250,6 +251,9 @@ fn copy_dir(from: &Path, out: &Path) -> Result<PathBuf, Error> {
     }
     for sub in ["", "frames"] {
         let (src, dst) = (from.join(sub), out.join(sub));
+        if !src.is_dir() {
+            continue;
+        }
         std::fs::create_dir_all(&dst).map_err(|e| Error::io(&dst, e))?;
         for entry in std::fs::read_dir(&src).map_err(|e| Error::io(&src, e))? {
             let p = entry.map_err(|e| Error::io(&src, e))?.path();

@@ -1,6 +1,6 @@
 //! The trial recorder: a thread that turns what the loop observes — the executor's log
 //! records, the host's received messages (probe telemetry), camera frames — into a trial
-//! directory through [`TrialWriter`], encodes the frames as PNG, and tracks every frame with
+//! directory through [`TrialWriter`], stores the frames in the trial's frame store, and tracks every frame with
 //! the host's tracker (calibration as the host believes it) into pose.csv.
 //!
 //! Rows are written from the trial's start (the executor's `Started` event) on; everything
@@ -19,11 +19,11 @@
 use crate::Error;
 use crate::client::schedule::Schedule;
 use crate::client::tracking::pose_row;
-use crate::plant::frame_png::encode_png;
 use image::GrayImage;
 use mesopush_core::geom::Vec2;
 use mesopush_executor::LogEvent;
 use mesopush_executor::camera::{SeqCheck, StampSource, StampedFrame};
+use mesopush_framestore::PageMeta;
 use mesopush_protocol::host::{ExecToHost, TrialEventKind};
 use mesopush_protocol::units::nm_to_um;
 use mesopush_trial::{EventRow, FrameRow, PoseRow, ProbeRow, TrialWriter};
@@ -277,14 +277,17 @@ impl Recorder {
         let index = self.index;
         self.index += 1;
         self.out.frames += 1;
+        let st = &stamped.stamp;
+        let t_capture = self.rel(st.frame_stamp_us);
         let file = match image {
-            Some(img) => Some(self.writer.frame_png(index, &encode_png(img)?)?),
+            Some(img) => {
+                let page = PageMeta { index, t_capture_us: Some(t_capture) };
+                Some(self.writer.frame_image(page, img.width(), img.height(), img.as_raw())?)
+            }
             None => None,
         };
-        let st = &stamped.stamp;
         let probe =
             Vec2::new(nm_to_um(st.probe_x_nm), nm_to_um(st.probe_y_nm)) - self.schedule.offset_um;
-        let t_capture = self.rel(st.frame_stamp_us);
         self.writer.frame(&FrameRow {
             index,
             frame_seq: st.frame_seq,

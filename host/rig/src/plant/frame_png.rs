@@ -1,6 +1,5 @@
-//! A camera frame as PNG bytes, the one encoding of a rendered frame on disk: the trial's
-//! `frames/*.png` (written by the in-process recorder) and the simulator process's
-//! `background.png`. Fast compression: the recorder must keep up with the camera.
+//! A camera frame as PNG bytes: the simulator process's `background.png` (the trial's frames
+//! go to its frame store, `mesopush_framestore`). Fast compression.
 
 use crate::Error;
 use image::GrayImage;

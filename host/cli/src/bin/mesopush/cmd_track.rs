@@ -1,6 +1,7 @@
-//! `mesopush track`: measures the peg's pose and the probe tip in every PNG frame of a folder
-//! against a background frame, and writes pose.csv (and optionally overlays and a JSON
-//! summary). See `mesopush_vision::folder` for what is read from frames.csv.
+//! `mesopush track`: measures the peg's pose and the probe tip in every frame of a trial's
+//! frame store (`frames.tif`) or of a folder of PNG frames against a background frame, and
+//! writes pose.csv (and optionally overlays and a JSON summary). See
+//! `mesopush_vision::frame_source` for where frames and their times are read from.
 
 use mesopush_core::check::Allowed;
 use std::collections::BTreeMap;
@@ -10,16 +11,16 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::Args;
 use mesopush_core::geom::{ConvexPolygon, Vec2};
-use mesopush_vision::folder::{
-    POSE_CSV_HEADER, frame_stem, list_frames, pose_csv_row, read_capture_times,
-};
+use mesopush_vision::FrameSet;
+use mesopush_vision::folder::{POSE_CSV_HEADER, pose_csv_row};
 use mesopush_vision::overlay::draw_overlay;
 use mesopush_vision::{Calibration, Threshold, TrackSettings, Tracker};
 
 /// Track the peg and the probe tip in a folder of microscope frames.
 #[derive(Debug, Args)]
 pub(crate) struct TrackArgs {
-    /// Folder of PNG frames (8-bit grayscale; processed in file-name order).
+    /// A trial directory holding a frame store (`frames.tif`), a store file itself, or a
+    /// folder of PNG frames (8-bit grayscale; processed in file-name order).
     frames_dir: PathBuf,
     /// Reference frame of the empty fixture (same size and lighting as the frames).
     #[arg(long)]
@@ -108,8 +109,10 @@ fn load_gray(path: &std::path::Path) -> anyhow::Result<image::GrayImage> {
 pub(crate) fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let bg = load_gray(&args.background)?;
     let settings = settings(args, bg.width(), bg.height())?;
-    let frames = list_frames(&args.frames_dir, Some(&args.background))?;
-    let times = read_capture_times(&args.frames_dir, &frames)?;
+    let mut frames = FrameSet::open(&args.frames_dir, Some(&args.background))?;
+    if let Some(note) = frames.damage() {
+        eprintln!("warning: {}: {note}", args.frames_dir.display());
+    }
     if let Some(dir) = &args.overlay {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
@@ -126,13 +129,15 @@ pub(crate) fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let mut flag_counts: BTreeMap<String, usize> = BTreeMap::new();
     let mut tip_flag_counts: BTreeMap<String, usize> = BTreeMap::new();
     let (mut flagged, mut conf_sum, mut busy_s) = (0usize, 0.0, 0.0);
-    for (path, t_us) in frames.iter().zip(&times) {
-        let frame = load_gray(path)?;
+    let mut with_time = 0usize;
+    for k in 0..frames.len() {
+        let (stem, t_us) = (frames.label(k), frames.time_us(k));
+        let frame = frames.image(k)?;
         let start = Instant::now();
-        let m = tracker.track(&frame).with_context(|| path.display().to_string())?;
+        let m = tracker.track(&frame).with_context(|| stem.clone())?;
         busy_s += start.elapsed().as_secs_f64();
-        let stem = frame_stem(path);
-        out.write_record(pose_csv_row(&stem, *t_us, &m))?;
+        with_time += usize::from(t_us.is_some());
+        out.write_record(pose_csv_row(&stem, t_us, &m))?;
         flagged += usize::from(m.is_flagged());
         conf_sum += m.confidence;
         for f in &m.flags {
@@ -160,7 +165,7 @@ pub(crate) fn run(args: &TrackArgs) -> anyhow::Result<()> {
         "tip_flagged": tip_flagged,
         "tip_flags": tip_flag_counts,
         "mean_confidence": conf_sum / n as f64,
-        "with_time": times.iter().filter(|t| t.is_some()).count(),
+        "with_time": with_time,
         "tracking_ms_per_frame": 1e3 * busy_s / n as f64,
         "out": args.out,
     });
