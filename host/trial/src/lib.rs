@@ -1,7 +1,8 @@
 //! Trial logs: one directory per trial, the measured data every later stage reads
 //! (identification, diagnosis, batch reports). The format is documented, versioned and
 //! pandas-friendly (`docs/trial-log.md`): `trial.json` metadata, `probe.csv`, `frames.csv`,
-//! `events.csv`, `pose.csv`, and the frames as PNG under `frames/`. [`import`] converts
+//! `events.csv`, `pose.csv`, and the frames in one multi-page TIFF, `frames.tif`
+//! (`mesopush_framestore`; older trials: PNG files under `frames/`). [`import`] converts
 //! foreign recordings of real pushes into the same format.
 //!
 //! Time: every `t_us` column is microseconds since the trial's start (the executor's time
@@ -20,6 +21,7 @@ pub mod meta;
 pub mod pusher_path;
 pub mod reader;
 pub mod records;
+pub mod retention;
 pub mod time_order;
 pub mod writer;
 
@@ -28,6 +30,7 @@ pub use error::Error;
 pub use meta::{CalibrationRecord, Outcome, TrialMeta, TrialState};
 pub use reader::Trial;
 pub use records::{EventRow, FrameRow, PoseRow, ProbeRow};
+pub use retention::{FrameRetention, FramesKept};
 pub use time_order::DroppedRow;
 pub use writer::TrialWriter;
 

@@ -3,6 +3,7 @@
 //! as its version-2 equivalent (its `probe_radius_um` becomes a one-disc [`Pusher`]), so every
 //! reader sees one shape.
 
+use super::retention::FramesKept;
 use crate::Error;
 use mesopush_sim::{Fixture, Part, Plan, Pusher};
 use mesopush_vision::calib::Calibration;
@@ -135,6 +136,10 @@ pub struct TrialMeta {
     /// default (`registration_tol` × the part's size).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub registration_tol_um: Option<f64>,
+    /// Which frame images were kept after the trial (the retention setting, frames stored,
+    /// frames kept); absent: every stored frame is kept (trials before the setting).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frames_kept: Option<FramesKept>,
     /// How it ended.
     pub outcome: Outcome,
 }
@@ -162,6 +167,7 @@ impl TrialMeta {
             world: None,
             import: None,
             registration_tol_um: None,
+            frames_kept: None,
             outcome: Outcome::incomplete(),
         }
     }
@@ -250,6 +256,8 @@ struct MetaFile {
     import: Option<serde_json::Value>,
     #[serde(default)]
     registration_tol_um: Option<f64>,
+    #[serde(default)]
+    frames_kept: Option<FramesKept>,
     outcome: Outcome,
 }
 
@@ -328,6 +336,7 @@ impl TryFrom<MetaFile> for TrialMeta {
             world: f.world,
             import: f.import,
             registration_tol_um: f.registration_tol_um,
+            frames_kept: f.frames_kept,
             outcome: f.outcome,
         };
         meta.check()?;

@@ -118,6 +118,13 @@ impl TrialFrames {
 
     /// The frame `file` names: `frames.tif#PAGE` (the store) or a path relative to the trial.
     pub fn load(&mut self, file: &str) -> Result<GrayImage, Error> {
+        self.load_row(file, None)
+    }
+
+    /// The frame `file` names, checking that a stored page holds frames.csv row `index`
+    /// (each page records its row: a store and a frames.csv that disagree — e.g. a crash
+    /// while retention rewrote them — are refused, never tracked as the wrong frame).
+    pub fn load_row(&mut self, file: &str, index: Option<u64>) -> Result<GrayImage, Error> {
         let Some(page) = parse_page_ref(file) else {
             return load_gray_png(&self.dir.join(file));
         };
@@ -125,6 +132,18 @@ impl TrialFrames {
             self.store = Some(FrameStore::open(&self.dir.join(STORE_FILE))?);
         }
         let store = self.store.as_mut().expect("opened above");
-        read_page(store, usize::try_from(page).unwrap_or(usize::MAX))
+        let page = usize::try_from(page).unwrap_or(usize::MAX);
+        let holds = store.pages().get(page).map(|m| m.index);
+        if let (Some(want), Some(got)) = (index, holds) {
+            if want != got {
+                let path = store.path().to_path_buf();
+                let message = format!(
+                    "frames.csv row {want} names {file}, but that page holds row {got}; the \
+                     store and frames.csv disagree"
+                );
+                return Err(Error::Parse { path, message });
+            }
+        }
+        read_page(store, page)
     }
 }

@@ -97,7 +97,7 @@ fn tracked_poses(
         // dropped and black frames in between widen the tracker's jump tolerance
         let periods = last_index.map_or(1, |i| f.index.saturating_sub(i));
         last_index = Some(f.index);
-        let image = images.load(file)?;
+        let image = images.load_row(file, Some(f.index))?;
         let m = tracker.track_after(&image, u32::try_from(periods).unwrap_or(u32::MAX))?;
         let Some(row) = pose_row(t, f.index, &m) else { continue };
         out.push((row, m.is_flagged()));
