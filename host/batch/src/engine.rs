@@ -18,6 +18,7 @@ use super::journal::{AttemptRecord, JOURNAL, Journal, Record};
 use super::leftovers;
 use super::lock::BatchLock;
 use super::runner::{RunnerFactory, TrialJob, TrialResult, TrialVerdict};
+use super::space::{SpaceCheck, estimate_trial_bytes};
 use super::spec::{BatchSpec, attempt_seed, trial_id, trial_seed};
 pub use super::spec::{TRIALS_DIR, attempt_dir};
 use super::supervise::Supervisor;
@@ -25,6 +26,7 @@ use crate::Error;
 use mesopush_core::geom::Pose;
 use mesopush_core::shard::Shard;
 use mesopush_sim::Plan;
+use mesopush_trial::FrameRetention;
 use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -79,20 +81,27 @@ pub struct BatchConfig {
     pub shard: Shard,
     /// Stop this session after this many trials (the rest on the next run).
     pub max_trials: Option<u64>,
+    /// The free-space policy (refusal at the start, stop before a trial).
+    pub space: SpaceCheck,
 }
 
 impl BatchConfig {
     /// The run of batch file `batch` the CLI asks for: its plans (resolved against the
     /// file's directory), the output directory (`out`, else the file's `out`, else
-    /// `runs/batch-<file stem>`; a shard runs in `<out>/shard-I-of-N`), and the factory of
-    /// its trial runners.
+    /// `runs/batch-<file stem>`; a shard runs in `<out>/shard-I-of-N`), the frame retention
+    /// (`frames`, else the file's), the free-space check (its per-trial estimate from the
+    /// file; `ignore_free_space` skips the refusal at the start), and the factory of its
+    /// trial runners.
     pub fn from_file(
         batch: &Path,
         out: Option<PathBuf>,
         shard: Shard,
         max_trials: Option<u64>,
+        frames: Option<FrameRetention>,
+        ignore_free_space: bool,
     ) -> Result<(Self, RunnerFactory), Error> {
-        let spec = BatchSpec::load(batch)?;
+        let mut spec = BatchSpec::load(batch)?;
+        spec.frames = frames.unwrap_or(spec.frames);
         let base = batch.parent().unwrap_or(Path::new("."));
         let plans = spec.load_plans(base)?;
         let stem = batch.file_stem().map_or("batch".into(), |s| s.to_string_lossy().into_owned());
@@ -103,7 +112,12 @@ impl BatchConfig {
         }
         let theta_hint_rad = plans.first().map_or(0.0, |p| p.peg_start_pose().theta_rad);
         let factory = super::factory::runner_factory(&spec, base, theta_hint_rad)?;
-        Ok((Self { spec, plans, out, shard, max_trials }, factory))
+        let space = SpaceCheck {
+            trial_bytes: estimate_trial_bytes(&spec, base, &plans)?,
+            ignore_at_start: ignore_free_space,
+            ..SpaceCheck::default()
+        };
+        Ok((Self { spec, plans, out, shard, max_trials, space }, factory))
     }
 }
 
@@ -138,6 +152,8 @@ pub struct Session {
     pub found: Vec<Finding>,
     /// Wall-clock time of the session, s.
     pub elapsed_s: f64,
+    /// Why the session stopped before its last trial (the disk nearly full), if it did.
+    pub stopped: Option<String>,
 }
 
 /// The start pose the world gives trial `seed`: the first plan's nominal start, perturbed.
@@ -150,6 +166,8 @@ pub fn peg_start(spec: &BatchSpec, plans: &[Plan], seed: u64) -> Pose {
 fn open_manifest(cfg: &BatchConfig) -> Result<(), Error> {
     let mut spec = cfg.spec.clone();
     spec.out = None;
+    // which frames trials keep may change between sessions: it changes no result
+    spec.frames = FrameRetention::All;
     let m = Manifest {
         format: FORMAT.into(),
         format_version: 1,
@@ -263,7 +281,12 @@ pub fn run(
     };
     on_progress(&progress);
     let take = cfg.max_trials.map_or(usize::MAX, |m| usize::try_from(m).unwrap_or(usize::MAX));
+    cfg.space.before_start(&cfg.out, unfinished.len().min(take) as u64)?;
     for (&index, &first) in unfinished.iter().take(take) {
+        if let Some(why) = cfg.space.before_trial(&cfg.out)? {
+            session.stopped = Some(format!("stopped before {}: {why}", trial_id(index)));
+            break;
+        }
         let verdict = run_trial(cfg, &mut sup, &mut journal, &plans, index, first)?;
         state.done.insert(index, verdict);
         session.ran += 1;

@@ -22,9 +22,9 @@ pub fn runner_factory(
             Some(p) => WorldFile::load(&base.join(p))?,
             None => WorldFile::default_world(),
         };
-        let camera = spec.camera.clone();
+        let (camera, frames) = (spec.camera.clone(), spec.frames);
         return Ok(Box::new(move || {
-            let r = RigRunner::new(world.clone(), &camera, theta_hint_rad)?;
+            let r = RigRunner::new(world.clone(), &camera, theta_hint_rad)?.keeping(frames);
             Ok(Box::new(r) as Box<dyn TrialRunner>)
         }));
     }

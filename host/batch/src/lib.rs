@@ -27,6 +27,7 @@ pub mod report;
 pub mod rig_runner;
 pub mod runner;
 pub mod sim_runner;
+pub mod space;
 pub mod spec;
 pub mod stats;
 pub mod supervise;

@@ -10,7 +10,8 @@
 //! the plan is chosen and shifted for (see [`mesopush_rig::plant::start_camera`], [`super::policy`]). The peg start comes from
 //! the batch (the world file's own `perturb` is ignored so the start is perturbed once).
 //! The batch's `camera.film_period_us`, when set, replaces the world camera's frame period.
-//! Cancellation: the loop's progress callback checks the cancel flag every 0.1 s of
+//! After the verdict the batch's frame retention (`frames`) is applied to the trial
+//! directory (`mesopush_trial::retention`). Cancellation: the loop's progress callback checks the cancel flag every 0.1 s of
 //! simulated time and unwinds out of the loop (without the panic hook) when raised.
 
 use super::policy::{adapt, nearest_plan};
@@ -21,7 +22,7 @@ use crate::Error;
 use mesopush_rig::plant::start_camera::Camera;
 use mesopush_rig::{ClockMode, FaultCount, TrialReport, TrialSpec, WorldFile, run_trial};
 use mesopush_sim::Fixture;
-use mesopush_trial::{TrialMeta, TrialState};
+use mesopush_trial::{FrameRetention, TrialMeta, TrialState};
 use mesopush_vision::RenderSettings;
 use rand::SeedableRng;
 use std::panic::AssertUnwindSafe;
@@ -32,6 +33,7 @@ use std::path::Path;
 pub struct RigRunner {
     world: WorldFile,
     camera: Option<Camera>,
+    frames: FrameRetention,
 }
 
 /// The unwinding payload that carries a cancellation out of the loop.
@@ -69,7 +71,13 @@ impl RigRunner {
         } else {
             None
         };
-        Ok(Self { world, camera })
+        Ok(Self { world, camera, frames: FrameRetention::All })
+    }
+
+    /// The runner keeping `frames` of each trial (default all).
+    pub fn keeping(mut self, frames: FrameRetention) -> Self {
+        self.frames = frames;
+        self
     }
 }
 
@@ -158,6 +166,8 @@ impl TrialRunner for RigRunner {
             Err(p) => std::panic::resume_unwind(p),
         };
         let (v, why) = verdict(&r);
+        // poses are tracked, the verdict judged: only images go (counts in trial.json)
+        mesopush_trial::retention::apply(&r.dir, self.frames, v == TrialVerdict::Inserted)?;
         out.verdict = v;
         out.reason = why;
         out.plan_name = plan.name;

@@ -7,6 +7,7 @@
 use super::runner::TrialVerdict;
 use crate::Error;
 use mesopush_sim::Plan;
+use mesopush_trial::FrameRetention;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -43,6 +44,11 @@ pub struct BatchSpec {
     /// Timeouts and retries.
     #[serde(default)]
     pub policy: Policy,
+    /// Which frame images each trial keeps: `"all"` (default), `"failed"` (only trials whose
+    /// verdict is not inserted), `"every N"`, `"none"`; `batch run --frames` overrides it.
+    /// Poses are tracked while the trial runs, so results never depend on it.
+    #[serde(default)]
+    pub frames: FrameRetention,
 }
 
 fn default_runner() -> String {

@@ -3,6 +3,7 @@
 //! timeouts, restarts, resume after an interrupted attempt, sharding + merge, the report.
 
 use mesopush_batch::journal::{JOURNAL, Record, read};
+use mesopush_batch::space::SpaceCheck;
 use mesopush_batch::spec::{BatchWorld, Policy, StartCameraSpec};
 use mesopush_batch::stats::{Loaded, summarize};
 use mesopush_batch::{
@@ -31,11 +32,20 @@ fn spec(trials: u64, seed: u64, camera: bool) -> BatchSpec {
             film_period_us: None,
         },
         policy: Policy { timeout_s: 30.0, grace_s: 0.5, max_attempts: 2, ..Default::default() },
+        frames: Default::default(),
     }
 }
 
 fn cfg(spec: BatchSpec, out: &Path, shard: Shard, max_trials: Option<u64>) -> BatchConfig {
-    BatchConfig { spec, plans: vec![Plan::table2()], out: out.to_path_buf(), shard, max_trials }
+    let space = SpaceCheck::default();
+    BatchConfig {
+        spec,
+        plans: vec![Plan::table2()],
+        out: out.to_path_buf(),
+        shard,
+        max_trials,
+        space,
+    }
 }
 
 fn sim_factory(camera: StartCameraSpec) -> RunnerFactory {

@@ -37,6 +37,7 @@ fn spec() -> BatchSpec {
             film_period_us: None,
         },
         policy: Policy { timeout_s: 60.0, grace_s: 1.0, max_attempts: 2, ..Default::default() },
+        frames: Default::default(),
     }
 }
 
@@ -61,6 +62,7 @@ fn run_batch(out: &Path, shard: Shard, max_trials: Option<u64>) -> Result<Sessio
         out: out.to_path_buf(),
         shard,
         max_trials,
+        space: mesopush_batch::space::SpaceCheck::default(),
     };
     run(&cfg, factory(), &mut |_| {})
 }

@@ -33,6 +33,7 @@ fn run_shards(spec: &BatchSpec, base: &Path, out: &Path) -> Vec<PathBuf> {
                 out: dir.clone(),
                 shard: Shard { index: i as u64, count: 2 },
                 max_trials: None,
+                space: mesopush_batch::space::SpaceCheck::default(),
             };
             let factory = runner_factory(spec, base, theta).unwrap();
             s.spawn(move || run(&cfg, factory, &mut |_| {}).unwrap());

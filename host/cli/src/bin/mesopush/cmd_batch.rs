@@ -8,6 +8,7 @@ use mesopush_batch::integrity::Finding;
 use mesopush_batch::stats::{Loaded, Summary, summarize};
 use mesopush_batch::{BatchConfig, BatchProgress, Session, merge, report};
 use mesopush_core::shard::Shard;
+use mesopush_trial::FrameRetention;
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -42,6 +43,14 @@ struct RunArgs {
     /// Stop after this many trials in this session (≥ 1; run again to continue).
     #[arg(long)]
     max_trials: Option<u64>,
+    /// Frame images each trial keeps: all, failed (trials not inserted), "every N", none
+    /// (default: the batch file's `frames`, else all).
+    #[arg(long, value_name = "all|failed|every N|none")]
+    frames: Option<FrameRetention>,
+    /// Start even when the estimated size of the trials left exceeds the free space (the
+    /// batch still stops cleanly before a trial when the disk is nearly full).
+    #[arg(long)]
+    ignore_free_space: bool,
     /// Print one JSON summary instead of text.
     #[arg(long)]
     json: bool,
@@ -93,7 +102,14 @@ fn bar(json: bool) -> ProgressBar {
 
 fn run_batch(a: &RunArgs) -> Result<()> {
     let shard = a.shard.as_deref().map(Shard::parse).transpose()?.unwrap_or(Shard::ALL);
-    let (cfg, factory) = BatchConfig::from_file(&a.batch, a.out.clone(), shard, a.max_trials)?;
+    let (cfg, factory) = BatchConfig::from_file(
+        &a.batch,
+        a.out.clone(),
+        shard,
+        a.max_trials,
+        a.frames,
+        a.ignore_free_space,
+    )?;
     let out = cfg.out.clone();
     let pb = bar(a.json);
     let mut on_progress = |p: &BatchProgress| {
@@ -109,6 +125,9 @@ fn run_batch(a: &RunArgs) -> Result<()> {
     pb.finish_and_clear();
     let s = summarize(&Loaded::load(&out)?);
     print_run(&out, &s, &session, a.json);
+    if let Some(why) = &session.stopped {
+        anyhow::bail!("{why}");
+    }
     if !session.found.is_empty() {
         return Err(crate::verdict::Negative(format!(
             "data integrity: this resume found {} (set aside and run again; {})",

@@ -11,6 +11,7 @@ use mesopush_rig::drive::figure::{TrialFigure, draw_trial};
 use mesopush_rig::plant::world_check::check_plan_on_stage;
 use mesopush_rig::{ClockMode, TrialReport, TrialSpec, WorldFile, run_trial};
 use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
+use mesopush_trial::{FrameRetention, TrialState, retention};
 use std::path::{Path, PathBuf};
 
 /// The paper's Table II plan, embedded.
@@ -34,6 +35,10 @@ pub(crate) struct DemoArgs {
     /// Run in real time (≈ 50 s of motion for Table II) instead of simulated time.
     #[arg(long)]
     realtime: bool,
+    /// Frame images to keep: all, failed (only if not inserted), "every N", none. Poses are
+    /// tracked while the trial runs, so the verdict and pose.csv never depend on it.
+    #[arg(long, default_value = "all", value_name = "all|failed|every N|none")]
+    frames: FrameRetention,
     /// Print a JSON summary instead of text.
     #[arg(long)]
     json: bool,
@@ -104,15 +109,22 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<()> {
         let why = report.reason.as_deref().unwrap_or("refused");
         anyhow::bail!("the executor refused the plan: {why} (trial directory {})", out.display());
     }
+    let success = report.state == TrialState::Done && report.inserted == Some(true);
+    let kept = retention::apply(&report.dir, args.frames, success)?;
     let fig = figure(&report, &plan, &report.dir)?;
     if args.json {
         let mut v = serde_json::to_value(&report)?;
+        v["frames_kept"] = serde_json::to_value(&kept)?;
         v["trial_dir"] = serde_json::json!(report.dir);
         v["figure"] = serde_json::json!(fig);
         v["seed"] = serde_json::json!(args.seed);
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         print_summary(&report, &fig, args.seed);
+        println!(
+            "  frame images kept: {} of {} (frames = {})",
+            kept.kept, kept.stored, kept.retention
+        );
     }
     Ok(crate::verdict::trial_verdict(report.state, report.inserted)?)
 }

@@ -12,6 +12,7 @@ use mesopush_executor::ExecutorConfig;
 use mesopush_rig::WorldFile;
 use mesopush_rig::client::hil::{self, RunOptions, RunReport};
 use mesopush_sim::Plan;
+use mesopush_trial::{FrameRetention, TrialState, retention};
 use std::path::{Path, PathBuf};
 
 /// The paper's Table II plan, embedded.
@@ -49,6 +50,11 @@ pub(crate) struct RunArgs {
     /// description and seed) in trial.json's `world` (mesopush-fwsim prints the path).
     #[arg(long)]
     sim_world: Option<PathBuf>,
+    /// Frame images to keep once the recording is tracked: all, failed (only if not
+    /// inserted), "every N", none. Applies to the completed trial directory (with --out,
+    /// the copy; the executor's recording under --record-dir is left as it was).
+    #[arg(long, default_value = "all", value_name = "all|failed|every N|none")]
+    frames: FrameRetention,
     /// Print a JSON summary.
     #[arg(long)]
     json: bool,
@@ -86,10 +92,19 @@ pub(crate) fn run(args: &RunArgs) -> anyhow::Result<()> {
         sim_world: args.sim_world.clone(),
     };
     let report = hil::run(&opts).with_context(|| format!("running the trial on {}", args.port))?;
+    let t = &report.trial;
+    let success = t.state == TrialState::Done && t.inserted == Some(true);
+    let kept = retention::apply(&t.trial_dir, args.frames, success)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        let mut v = serde_json::to_value(&report)?;
+        v["frames_kept"] = serde_json::to_value(&kept)?;
+        println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         print_summary(&report);
+        println!(
+            "  frame images kept: {} of {} (frames = {})",
+            kept.kept, kept.stored, kept.retention
+        );
     }
     Ok(crate::verdict::trial_verdict(report.trial.state, report.trial.inserted)?)
 }
