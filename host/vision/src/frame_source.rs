@@ -60,6 +60,14 @@ impl FrameSet {
         }
     }
 
+    /// Where frame `k` is, for messages: the PNG's path, or the store's path with `#k`.
+    pub fn location(&self, k: usize) -> String {
+        match self {
+            Self::Pngs { paths, .. } => paths[k].display().to_string(),
+            Self::Store(s) => format!("{}#{k}", s.path().display()),
+        }
+    }
+
     /// Frame `k`'s capture time, µs, when known.
     pub fn time_us(&self, k: usize) -> Option<i64> {
         match self {

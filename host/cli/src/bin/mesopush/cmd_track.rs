@@ -134,7 +134,7 @@ pub(crate) fn run(args: &TrackArgs) -> anyhow::Result<()> {
         let (stem, t_us) = (frames.label(k), frames.time_us(k));
         let frame = frames.image(k)?;
         let start = Instant::now();
-        let m = tracker.track(&frame).with_context(|| stem.clone())?;
+        let m = tracker.track(&frame).with_context(|| frames.location(k))?;
         busy_s += start.elapsed().as_secs_f64();
         with_time += usize::from(t_us.is_some());
         out.write_record(pose_csv_row(&stem, t_us, &m))?;
