@@ -11,7 +11,8 @@
 //! adds the std shell ([`shell`]), the file-backed plan store, a monotonic clock and the
 //! recording schema ([`recording`]) the host's trial logs build on.
 //!
-//! May depend on: `mesopush-protocol` only — never on host crates or the firmware
+//! May depend on: `mesopush-protocol` only (the std shell also on the leaf crates
+//! `mesopush-fsx` and `mesopush-framestore`) — never on host crates or the firmware
 //! simulator (which its tests use as a peer).
 #![no_std]
 #![deny(missing_docs)]

@@ -15,8 +15,8 @@
 //! - [`drive`]: the loop drivers — [`run_trial`] in simulated or real time, the recorder,
 //!   the fault counts and the trial figure.
 //!
-//! May depend on: mesopush-core, -sim, -vision, -trial, -plot, -protocol, -executor and
-//! -firmware-sim. Never on mesopush-ident, -plan, -diagnose, -batch or -cli (they build on
+//! May depend on: mesopush-core, -sim, -vision, -trial, -plot, -protocol, -executor,
+//! -framestore and -firmware-sim. Never on mesopush-ident, -plan, -diagnose, -batch or -cli (they build on
 //! this crate).
 
 pub mod client;

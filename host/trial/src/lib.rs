@@ -10,7 +10,7 @@
 //!
 //! May depend on: `mesopush-protocol` (unit conversions), `mesopush-core`, `mesopush-sim` (the
 //! part, pusher, plan and fixture a trial records), `mesopush-vision` (its calibration) and
-//! the executor's recording schema. Never on
+//! the executor's recording schema and frame store (`mesopush-framestore`). Never on
 //! identification, planning, diagnosis, the rig or batches, which all read trial logs.
 
 mod csv_read;
