@@ -20,8 +20,8 @@ pub enum FrameSet {
         /// Capture times, µs.
         times: Vec<Option<i64>>,
     },
-    /// A frame store: its pages in order, times from the pages.
-    Store(FrameStore),
+    /// A frame store: its pages in order, times from the pages (boxed: a decoder is large).
+    Store(Box<FrameStore>),
 }
 
 impl FrameSet {
@@ -31,7 +31,7 @@ impl FrameSet {
         let store = if path.is_file() { Some(path.to_path_buf()) } else { None };
         let store = store.or_else(|| Some(path.join(STORE_FILE)).filter(|p| p.is_file()));
         if let Some(file) = store {
-            return Ok(Self::Store(FrameStore::open(&file)?));
+            return Ok(Self::Store(Box::new(FrameStore::open(&file)?)));
         }
         let paths = list_frames(path, exclude)?;
         let times = read_capture_times(path, &paths)?;
