@@ -23,6 +23,7 @@ pub mod confusion;
 pub mod data;
 pub mod decide;
 pub mod error;
+pub mod figure;
 pub mod fit;
 pub mod heldout;
 pub mod nominal;
