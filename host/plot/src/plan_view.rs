@@ -56,7 +56,7 @@ where
         pts.push(pts[0]);
         chart
             .draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(2))))?
-            .label("goal region (peg centre inside it)")
+            .label("goal region (inserted: peg centre inside by the insert depth)")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], GREEN.stroke_width(2)));
     }
     let n = fig.poses.len();
