@@ -231,7 +231,7 @@ fn predict_with(
         let c = remove_scale_error(at.position(), fx.scale_error, fx.scale_origin_um);
         // The angle's aspect distortion is second order (< 1e-4 rad at 3 %); ignored here.
         if i > 0 {
-            sim = Simulator::new(sim.model().clone(), data.fixture.clone(), settings.clone())?;
+            sim.reset();
         }
         let r = follow_path(&mut sim, Pose::new(c.x, c.y, at.theta_rad), &seg)?;
         replay.jams += r.jams;
