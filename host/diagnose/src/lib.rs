@@ -25,6 +25,7 @@ pub mod decide;
 pub mod error;
 pub mod fit;
 pub mod heldout;
+pub mod memo;
 pub mod nominal;
 pub mod objective;
 pub mod options;

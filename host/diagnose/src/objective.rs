@@ -4,10 +4,23 @@
 //! ([`residuals`], for held-out errors and the report).
 
 use super::data::TrialData;
-use super::predict::predict;
+use super::memo::{cached, model_key};
+use super::predict::{Prediction, predict};
 use super::residual::{Noise, Residual};
 use crate::Error;
 use mesopush_sim::{Model, SimSettings};
+use std::sync::Arc;
+
+/// `predict`, through the memo ([`super::memo`]): a fit evaluates many a model more than
+/// once; `key` is the [`model_key`] of `model` and `settings`.
+fn predicted(
+    t: &TrialData,
+    model: &Model,
+    settings: &SimSettings,
+    key: &str,
+) -> Result<Arc<Prediction>, Error> {
+    cached(t, key, || predict(t, model, settings))
+}
 
 /// Loss of a parameter set that cannot be simulated (kept finite so the simplex moves away).
 pub const FAILED: f64 = 1e12;
@@ -23,10 +36,11 @@ pub fn loss(
     if model.validate().is_err() {
         return (FAILED, 1);
     }
+    let key = model_key("predict", model, settings);
     let mut sum = 0.0;
     let mut n = 0;
     for t in trials {
-        match predict(t, model, settings) {
+        match predicted(t, model, settings, &key) {
             Ok(pred) => {
                 let r = Residual::new(t, &pred);
                 let (s, k) = r.weighted_sse(noise);
@@ -50,9 +64,10 @@ pub fn residual_vector(
     if model.validate().is_err() {
         return None;
     }
+    let key = model_key("predict", model, settings);
     let mut out = Vec::new();
     for t in trials {
-        let pred = predict(t, model, settings).ok()?;
+        let pred = predicted(t, model, settings, &key).ok()?;
         Residual::new(t, &pred).weighted_into(noise, &mut out);
     }
     Some(out)
@@ -65,10 +80,11 @@ pub fn residuals(
     model: &Model,
     s: &SimSettings,
 ) -> Result<Vec<Residual>, Error> {
+    let key = model_key("predict", model, s);
     trials
         .iter()
         .map(|t| {
-            let p = predict(t, model, s).map_err(|e| {
+            let p = predicted(t, model, s, &key).map_err(|e| {
                 Error::invalid("diagnose", format!("trial {} cannot be simulated: {e}", t.id))
             })?;
             Ok(Residual::new(t, &p))
