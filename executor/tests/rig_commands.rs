@@ -39,18 +39,18 @@ fn at(x_nm: i32, y_nm: i32) -> StagePoint {
     StagePoint { x_nm, y_nm }
 }
 
-/// The case: a plan stated to start far away (−50 000 µm) is refused, naming both
-/// positions and the tolerance; a start within the tolerance arms.
+/// A plan stated to start elsewhere in the workspace is refused, naming both positions and
+/// the tolerance; a start within the tolerance arms.
 #[test]
 fn arm_is_refused_when_the_probe_is_not_at_the_plans_stated_start() {
     let mut rig = flashed(2);
-    let far = at(-49_000_000, -49_000_000);
+    let far = at(9_000_000, 8_000_000);
     let reply = rig.host(HostToExec::Arm { plan_id: 7, start: far });
     let tolerance_nm = ExecutorConfig::DEFAULT.start_tolerance_nm;
     let want = CommandRejectReason::StartMismatch { probe: START, start: far, tolerance_nm };
     assert_eq!(reply, vec![ExecToHost::CommandRejected(want)]);
     let text = want.to_string();
-    assert!(text.contains("(1000.0, 1000.0) µm") && text.contains("(-49000.0, -49000.0) µm"));
+    assert!(text.contains("(1000.0, 1000.0) µm") && text.contains("(9000.0, 8000.0) µm"));
     assert!(text.contains("5.0 µm") && text.contains("rig goto"), "{text}");
     assert_eq!(rig.exec.state(), ExecState::PlanFlashed);
     // Just outside, then just inside the tolerance.
@@ -65,6 +65,23 @@ fn arm_is_refused_when_the_probe_is_not_at_the_plans_stated_start() {
         matches!(reply[..], [ExecToHost::Status(s)] if s.state == ExecState::Armed),
         "{reply:?}"
     );
+}
+
+/// The case, a plan stated to start at (−49 000, −49 000) µm on the stage: outside the
+/// workspace, so refused as such (not with advice to `rig goto` an unreachable start).
+#[test]
+fn arm_of_a_start_outside_the_workspace_is_refused_as_outside_not_as_mismatch() {
+    let mut rig = flashed(2);
+    let far = at(-49_000_000, -49_000_000);
+    let reply = rig.host(HostToExec::Arm { plan_id: 7, start: far });
+    let w = ExecutorConfig::DEFAULT.workspace;
+    let (min, max) = (at(w.min_x_nm, w.min_y_nm), at(w.max_x_nm, w.max_y_nm));
+    let want = CommandRejectReason::OutsideWorkspace { target: far, min, max };
+    assert_eq!(reply, vec![ExecToHost::CommandRejected(want)]);
+    let text = want.to_string();
+    assert!(text.contains("(-49000.0, -49000.0) µm") && text.contains("outside the workspace"));
+    assert_eq!(rig.exec.state(), ExecState::PlanFlashed);
+    assert_eq!(probe(&rig), START);
 }
 
 /// The tolerance is configuration.

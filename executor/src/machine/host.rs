@@ -182,6 +182,14 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
         if self.plan.as_ref().is_none_or(|p| p.plan_id() != plan_id) {
             return self.plan_mismatch(out);
         }
+        // A stated start outside the workspace can never be reached: refused before the
+        // start-mismatch check, whose advice (`rig goto` there) would be wrong.
+        let w = self.config.workspace;
+        if !w.contains(i64::from(start.x_nm), i64::from(start.y_nm)) {
+            let min = StagePoint { x_nm: w.min_x_nm, y_nm: w.min_y_nm };
+            let max = StagePoint { x_nm: w.max_x_nm, y_nm: w.max_y_nm };
+            return reject(out, CommandRejectReason::OutsideWorkspace { target: start, min, max });
+        }
         let Some(report) = self.ready_position(now_us, out) else { return };
         let probe = StagePoint { x_nm: report.x_nm, y_nm: report.y_nm };
         let tolerance_nm = self.config.start_tolerance_nm;

@@ -40,6 +40,20 @@ y_um = 1210.0
 theta_deg = 89.0
 "#;
 
+/// A start the plan loader accepts (inside ±20 mm) but 15 mm left of the fixture: outside
+/// the executor's 0..10 mm stage workspace, so run and goto are refused by the rig.
+const OUTSIDE_PLAN: &str = r#"
+name = "outside the workspace"
+speed_um_s = 200.0
+probe_start_um = [-15000.0, 1000.0]
+moves_um = [[-100.0, 0.0]]
+
+[peg_start]
+x_um = 2330.0
+y_um = 1210.0
+theta_deg = 89.0
+"#;
+
 fn text(o: &std::process::Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
 }
@@ -96,15 +110,34 @@ fn hil_trials_back_to_back_with_goto_start_between() {
             assert!(t.contains("(3800.0, 2000.0) µm") && t.contains("(3900.0, 2000.0) µm"), "{t}");
             assert!(t.contains("5.0 µm") && t.contains("rig goto --plan"), "{t}");
             assert_eq!(status_json(&rig)["probe_fixture_um"], s["probe_fixture_um"]);
-            // The issue's plan: flashed, then refused at run and at goto (outside the
-            // workspace); the probe stays.
+            // The issue's plan (a start of −50 000 µm): refused by the plan loader at flash,
+            // run and goto alike (outside the ±20 mm a plan may state), naming the field; the
+            // probe stays.
             let far = d.join("far.toml");
             std::fs::write(&far, FAR_PLAN).unwrap();
-            rig.flash(&far);
+            let flash = Command::new(MESOPUSH)
+                .arg("flash")
+                .arg(&far)
+                .args(["--port", &rig.host, "--json"])
+                .output()
+                .unwrap();
             let run = rig.run(&far, &d.join("far"), Duration::from_secs(60));
-            assert_eq!(run.status.code(), Some(2), "{}", text(&run));
-            assert!(text(&run).contains("(-49000.0, -49000.0) µm"), "{}", text(&run));
             let goto = rig.rig(&["goto", "--plan", far.to_str().unwrap()]);
+            for o in [&flash, &run, &goto] {
+                assert_eq!(o.status.code(), Some(2), "{}", text(o));
+                assert!(text(o).contains("probe_start_um"), "{}", text(o));
+            }
+            assert_eq!(status_json(&rig)["probe_fixture_um"], s["probe_fixture_um"]);
+            // A start the loader accepts but the rig's workspace does not: flashed, then
+            // refused at run and at goto by the executor; the probe stays.
+            let out = d.join("outside.toml");
+            std::fs::write(&out, OUTSIDE_PLAN).unwrap();
+            rig.flash(&out);
+            let run = rig.run(&out, &d.join("outside"), Duration::from_secs(60));
+            assert_eq!(run.status.code(), Some(2), "{}", text(&run));
+            assert!(text(&run).contains("outside the rig's workspace"), "{}", text(&run));
+            assert!(text(&run).contains("(-15000.0, 1000.0) µm"), "{}", text(&run));
+            let goto = rig.rig(&["goto", "--plan", out.to_str().unwrap()]);
             assert_eq!(goto.status.code(), Some(2), "{}", text(&goto));
             assert!(text(&goto).contains("outside the workspace"), "{}", text(&goto));
             assert_eq!(status_json(&rig)["probe_fixture_um"], s["probe_fixture_um"]);

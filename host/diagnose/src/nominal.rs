@@ -67,7 +67,7 @@ const KEPT_STARTS: usize = 4;
 
 /// Where the fit starts: the given model's support, then the part's uniform-pressure
 /// triangle turned by 0°, 30°, 60° and 90° (a triangle of three points 120° apart repeats
-/// every 120°), each with the given probe friction and those of [`START_MU_PROBE`]; those
+/// every 120°), each with the given probe friction and those of `START_MU_PROBE` (0.25, 0.5, 1.0); those
 /// that do not fit inside the part are left out.
 pub fn starts(from: &Model) -> Vec<Candidate> {
     let mu_s = from.support.mu_surface;

@@ -65,7 +65,7 @@ impl OptimizeSettings {
 /// Which parameters the vector holds after μ and the three points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Layout {
-    /// One surface friction shared by the supports (x[7]).
+    /// One surface friction shared by the supports (`x[7]`).
     pub fit_surface: bool,
     /// Per-support friction loads: two log-ratios a2, a3 (a1 = −a2 − a3) last.
     pub free_loads: bool,

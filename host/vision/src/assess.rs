@@ -5,6 +5,7 @@
 use std::f64::consts::PI;
 
 use crate::moments::Moments;
+use crate::tip::TipFlag;
 use mesopush_core::geom::{Pose, Vec2};
 
 /// Why a measurement is flagged as low-confidence.
@@ -47,8 +48,11 @@ impl Flag {
 pub struct Measurement {
     /// The peg's pose in the fixture frame (µm, rad), `None` when no peg was found.
     pub pose: Option<Pose>,
-    /// Centre of the probe tip's rounded end, fixture frame, µm.
+    /// Centre of the probe tip's rounded end, fixture frame, µm: `None` when no needle was
+    /// seen or when its tip was withheld (`tip_flag`).
     pub probe_tip_um: Option<Vec2>,
+    /// Why a needle's tip that was seen is not reported (the image does not pin it down).
+    pub tip_flag: Option<TipFlag>,
     /// 0 (no information) … 1 (blob matches the peg exactly). Flagged frames stay ≤ 0.25.
     pub confidence: f64,
     /// Why the pose should not be trusted; empty when it can be.
@@ -121,6 +125,7 @@ mod tests {
         let flags = Measurement {
             pose: None,
             probe_tip_um: None,
+            tip_flag: None,
             confidence: 0.0,
             flags: vec![Flag::NoPeg, Flag::Wall],
             threshold: 0.2,

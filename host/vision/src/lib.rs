@@ -26,6 +26,7 @@ pub mod render;
 pub mod scale_lock;
 pub mod scene;
 pub mod threshold;
+pub mod tip;
 pub mod track;
 pub(crate) mod weigh;
 
@@ -39,4 +40,5 @@ pub use render::{GroundTruth, RenderSettings, Rendered, Renderer, render};
 pub use scale_lock::ScaleLearning;
 pub use scene::{DemoFixture, Scene, paper_peg};
 pub use threshold::Threshold;
+pub use tip::TipFlag;
 pub use track::{TrackSettings, Tracker};

@@ -69,6 +69,7 @@ mod tests {
         let m = Measurement {
             pose: Some(Pose::new(1685.0, 1260.0, 0.0)),
             probe_tip_um: None,
+            tip_flag: None,
             confidence: 1.0,
             flags: vec![],
             threshold: 0.2,

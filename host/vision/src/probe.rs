@@ -7,7 +7,8 @@ use crate::background::Background;
 use crate::morph::{
     Component, Roi, UNREACHABLE, chamfer_rows, dilate_square, label_components_into, mask_bounds,
 };
-use mesopush_core::geom::{ConvexPolygon, Vec2};
+use crate::tip::LocatedTip;
+use mesopush_core::geom::Vec2;
 
 /// What the tracker knows about the probe.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -44,8 +45,8 @@ fn reset<T: Copy>(v: &mut Vec<T>, n: usize, value: T) {
 }
 
 /// Splits `mask` (`w × h`) into needle (`buf.needle`) and rest, fills `buf.depth`, and
-/// returns the needle tip's centre (continuous pixel coordinates) and the unit direction of
-/// the shaft towards the tip, if there is a needle.
+/// returns the needle's end as located (its centre, the shaft's direction towards it, its
+/// distance from the shaft's axis and whether it merges with something), if there is a needle.
 pub(crate) fn separate_probe(
     mask: &[bool],
     darkening: &[f32],
@@ -53,7 +54,7 @@ pub(crate) fn separate_probe(
     open_radius_px: f64,
     tip_radius_px: f64,
     buf: &mut ProbeBuffers,
-) -> Option<(Vec2, Vec2)> {
+) -> Option<LocatedTip> {
     let (w, h) = (bg.width(), bg.height());
     reset(&mut buf.depth, w * h, 0);
     reset(&mut buf.needle, w * h, false);
@@ -98,7 +99,48 @@ pub(crate) fn separate_probe(
     }
     let depth = &buf.depth;
     let tip = TipInput { pixels: &pixels, mask, needle: &buf.needle, darkening, depth, bg };
-    Some((refine_tip(&tip, &shaft, tip_radius_px), shaft.u))
+    let centre_px = refine_tip(&tip, &shaft, tip_radius_px);
+    Some(LocatedTip {
+        centre_px,
+        toward_tip: shaft.u,
+        off_axis_px: off_axis(&tip, &shaft, centre_px, tip_radius_px),
+        merged: merges_ahead(&tip, centre_px, shaft.u, tip_radius_px),
+    })
+}
+
+/// How far the located tip lies beside the shaft just behind it: its lateral distance from
+/// the centroid of the needle's pixels 2 to 30 px behind its round end (the whole shaft's
+/// axis, fitted near the entry, drifts by a pixel or two over the length of the needle).
+fn off_axis(t: &TipInput<'_>, shaft: &Shaft, centre: Vec2, r_px: f64) -> f64 {
+    let w = t.bg.width();
+    let lat = Vec2::new(-shaft.u.y, shaft.u.x);
+    let (mut n, mut sum) = (0usize, 0.0);
+    for &(x, y) in t.pixels {
+        let d = centre - self::centre((x, y));
+        let back = d.dot(&shaft.u);
+        if t.needle[y * w + x] && back >= r_px + 2.0 && back <= r_px + 30.0 {
+            n += 1;
+            sum += -d.dot(&lat);
+        }
+    }
+    if n >= 10 { -(sum / n as f64) } else { (centre - shaft.mean).dot(&lat) }
+}
+
+/// Whether a pixel of the mask that is not needle lies 1.5 px beyond the round tip's edge
+/// anywhere on its front half (within 80° of the shaft's direction): where the tip's
+/// silhouette joins the peg's (or a wall's), its end is not seen against the plate.
+fn merges_ahead(t: &TipInput<'_>, centre: Vec2, u: Vec2, r_px: f64) -> bool {
+    let (w, h) = (t.bg.width() as f64, t.bg.height() as f64);
+    (-8..=8).any(|k| {
+        let (s, c) = (f64::from(k) * 10f64.to_radians()).sin_cos();
+        let dir = Vec2::new(c * u.x - s * u.y, s * u.x + c * u.y);
+        let p = centre + dir * (r_px + 1.5);
+        if !(p.x >= 0.0 && p.y >= 0.0 && p.x < w && p.y < h) {
+            return false;
+        }
+        let k = p.y as usize * t.bg.width() + p.x as usize;
+        t.mask[k] && !t.needle[k]
+    })
 }
 
 /// Where the needle is near the peg: pixels within `band + 1` of it are left out of the band,
@@ -183,35 +225,6 @@ fn open_away(mask: &[bool], w: usize, roi: Roi, open_radius_px: f64, buf: &mut P
             *t = m & (d > r3.saturating_add(1));
         }
     }
-}
-
-/// A tip that ends within `max_gap_um` of the peg's outline is taken as touching it: it is
-/// moved along the shaft until its rounded end just meets the outline. Where the tip touches
-/// the peg, the two blur into each other and the darkening mass the tip is located from is cut
-/// short by the peg's pixels, which leaves the estimate about a pixel back along the shaft; a
-/// gap smaller than a pixel cannot be seen anyway. Returns the tip unchanged otherwise.
-pub(crate) fn snap_to_contact(
-    tip_um: Vec2,
-    toward_tip: Vec2,
-    outline: &ConvexPolygon,
-    radius_um: f64,
-    max_gap_um: f64,
-) -> Vec2 {
-    let gap = |p: &Vec2| outline.signed_distance(p) - radius_um;
-    let g0 = gap(&tip_um);
-    if !(g0 > -radius_um && g0 < max_gap_um) {
-        return tip_um;
-    }
-    let mut p = tip_um;
-    for _ in 0..4 {
-        let g = gap(&p);
-        let slope = gap(&(p + toward_tip)) - g;
-        if slope > -0.2 {
-            return tip_um; // grazing the outline: no well-defined contact along the shaft
-        }
-        p -= toward_tip * (g / slope);
-    }
-    if (p - tip_um).norm() > max_gap_um + radius_um { tip_um } else { p }
 }
 
 struct TipInput<'a> {
@@ -330,7 +343,10 @@ fn thick_end(pixels: &[(usize, usize)]) -> Option<Vec2> {
 }
 
 /// Sub-pixel centre of the rounded tip: the darkening mass in a window behind the far end,
-/// read as a cylinder of the tip's diameter capped by a half disc.
+/// read as a cylinder of the tip's diameter capped by a half disc. The needle's contrast is
+/// read where it is opaque over the bare plate: over a wall it darkens the already dark
+/// acrylic less, and counting those pixels made the mass look too large (a tip near a wall
+/// was placed up to 6 px ahead of itself on frames of an independent renderer).
 fn refine_tip(t: &TipInput<'_>, shaft: &Shaft, r_px: f64) -> Vec2 {
     let w = t.bg.width();
     let (u, far) = (shaft.u, shaft.far);
@@ -339,7 +355,7 @@ fn refine_tip(t: &TipInput<'_>, shaft: &Shaft, r_px: f64) -> Vec2 {
         .pixels
         .iter()
         .map(|&(x, y)| y * w + x)
-        .filter(|&k| t.depth[k] >= 6 && t.needle[k])
+        .filter(|&k| t.depth[k] >= 6 && t.needle[k] && !t.bg.is_near_wall(k))
         .map(|k| t.darkening[k])
         .collect();
     let contrast = if deep.len() >= 10 {

@@ -22,20 +22,13 @@ use crate::background::Background;
 use crate::calib::Calibration;
 use crate::moments::{Moments, polygon_moments};
 use crate::morph::{Roi, label_components_into};
-use crate::probe::{ProbeBuffers, ProbeSettings, separate_probe, snap_to_contact};
+use crate::probe::{ProbeBuffers, ProbeSettings, separate_probe};
 use crate::scale_lock::{ScaleLearning, ScaleLock, scaled};
 use crate::scene::paper_peg;
 use crate::threshold::{Threshold, threshold_level};
+use crate::tip::{LocatedTip, PegView, TipFlag, place_tip};
 use crate::weigh::{Blob, Weighed, weigh};
 use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
-
-/// A located tip that ends within this many pixels of the peg's outline is taken as touching
-/// it ([`snap_to_contact`]). Where tip and peg blur together the located tip falls back along
-/// the shaft by one pixel and, at some sub-pixel phases, by more: with a one-pixel gap about
-/// two in three touching frames of a clean simulated push stayed 6–7 µm off the peg (read by
-/// `diagnose` as a needle bending under load); a free tip passes through this band only for
-/// a frame as it approaches.
-const SNAP_GAP_PX: f64 = 1.5;
 
 /// Tracker settings. Plain data; see `Default` for the documented values.
 #[derive(Debug, Clone, PartialEq)]
@@ -232,7 +225,6 @@ impl Tracker {
         let tip_r_px = 0.5 * self.settings.probe.tip_diameter_um / calib.mean_um_per_px();
         let open_px = self.settings.probe.max_half_width_um / calib.mean_um_per_px();
         let tip = separate_probe(&buf.mask, dark, &self.bg, open_px, tip_r_px, &mut buf.probe);
-        let probe_tip_um = tip.map(|(p, _)| calib.px_to_um(&p));
         // the rest lies within the mask's bounds (0 × 0 when the mask is empty)
         let roi = buf.probe.bounds;
         buf.rest.clear();
@@ -257,14 +249,12 @@ impl Tracker {
         });
         let weighed =
             blob.map(|b| (b.peg.bbox, weigh(&b, dark, &self.bg, calib, self.settings.band_px)));
-        let Some((
-            bbox,
-            Weighed { moments: Some(moments), occluded_px, wall_px, wall_adjacent_px },
-        )) = weighed
-        else {
+        let Some((bbox, weighed @ Weighed { moments: Some(moments), .. })) = weighed else {
+            let (probe_tip_um, tip_flag) = self.tip(tip.as_ref(), None);
             let none = Measurement {
                 pose: None,
                 probe_tip_um,
+                tip_flag,
                 confidence: 0.0,
                 flags: vec![Flag::NoPeg],
                 threshold,
@@ -272,23 +262,36 @@ impl Tracker {
             };
             return (none, None);
         };
-        let weighed = Weighed { moments: Some(moments), occluded_px, wall_px, wall_adjacent_px };
         let (pose, confidence, flags) = self.judge(&moments, bbox, &weighed, reference_rad);
         let area_um2 = moments.area_um2;
-        let probe_tip_um = match (tip, probe_tip_um) {
-            (Some((_, u)), Some(t)) if flags.is_empty() => {
-                let u_um =
-                    Vec2::new(u.x * calib.sx_um_per_px, u.y * calib.sy_um_per_px).normalize();
-                let outline = self.settings.peg.transformed(&pose);
-                let r_um = 0.5 * self.settings.probe.tip_diameter_um;
-                let max_gap_um = SNAP_GAP_PX * calib.mean_um_per_px();
-                Some(snap_to_contact(t, u_um, &outline, r_um, max_gap_um))
-            }
-            _ => probe_tip_um,
+        let outline = self.settings.peg.transformed(&pose);
+        let peg = PegView { outline: &outline, trusted: flags.is_empty() };
+        let (probe_tip_um, tip_flag) = self.tip(tip.as_ref(), Some(peg));
+        let m = Measurement {
+            pose: Some(pose),
+            probe_tip_um,
+            tip_flag,
+            confidence,
+            flags,
+            threshold,
+            area_um2,
         };
-        let m =
-            Measurement { pose: Some(pose), probe_tip_um, confidence, flags, threshold, area_um2 };
         (m, Some(moments))
+    }
+
+    /// The tip placed against the peg seen (or withheld, with the reason); nothing without a
+    /// needle.
+    fn tip(
+        &self,
+        tip: Option<&LocatedTip>,
+        peg: Option<PegView<'_>>,
+    ) -> (Option<Vec2>, Option<TipFlag>) {
+        let r_um = 0.5 * self.settings.probe.tip_diameter_um;
+        match tip.map(|t| place_tip(t, &self.settings.calibration, peg, r_um)) {
+            None => (None, None),
+            Some(Ok(p)) => (Some(p), None),
+            Some(Err(f)) => (None, Some(f)),
+        }
     }
 
     /// The pose from the moments, its confidence and its flags.

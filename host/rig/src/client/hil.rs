@@ -145,6 +145,15 @@ pub fn run(o: &RunOptions) -> Result<RunReport, Error> {
             );
             return Err(Error::invalid("run", hint));
         }
+        SessionEnd::Rejected(r @ CommandRejectReason::OutsideWorkspace { .. }) => {
+            let p = o.plan.probe_start();
+            let hint = format!(
+                "the plan's start, fixture ({:.1}, {:.1}) µm, is outside the rig's workspace: \
+                 {r}; fix the plan's probe_start_um or the rig's fixture offset",
+                p.x, p.y
+            );
+            return Err(Error::invalid("run", hint));
+        }
         SessionEnd::Rejected(r) => return Err(Error::invalid("run", r.to_string())),
         other => return Err(Error::invalid("run", format!("unexpected end {other:?}"))),
     };

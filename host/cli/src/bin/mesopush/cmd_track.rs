@@ -124,6 +124,7 @@ pub(crate) fn run(args: &TrackArgs) -> anyhow::Result<()> {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     let mut flag_counts: BTreeMap<String, usize> = BTreeMap::new();
+    let mut tip_flag_counts: BTreeMap<String, usize> = BTreeMap::new();
     let (mut flagged, mut conf_sum, mut busy_s) = (0usize, 0.0, 0.0);
     for (path, t_us) in frames.iter().zip(&times) {
         let frame = load_gray(path)?;
@@ -137,6 +138,9 @@ pub(crate) fn run(args: &TrackArgs) -> anyhow::Result<()> {
         for f in &m.flags {
             *flag_counts.entry(f.as_str().to_string()).or_default() += 1;
         }
+        if let Some(f) = m.tip_flag {
+            *tip_flag_counts.entry(f.as_str().to_string()).or_default() += 1;
+        }
         if let Some(dir) = &args.overlay {
             let p = dir.join(format!("{stem}.png"));
             draw_overlay(&frame, &m, &peg, &calib)
@@ -148,10 +152,13 @@ pub(crate) fn run(args: &TrackArgs) -> anyhow::Result<()> {
     out.flush().with_context(|| format!("writing {}", args.out.display()))?;
     bar.finish_and_clear();
     let n = frames.len();
+    let tip_flagged: usize = tip_flag_counts.values().sum();
     let summary = serde_json::json!({
         "frames": n,
         "flagged": flagged,
         "flags": flag_counts,
+        "tip_flagged": tip_flagged,
+        "tip_flags": tip_flag_counts,
         "mean_confidence": conf_sum / n as f64,
         "with_time": times.iter().filter(|t| t.is_some()).count(),
         "tracking_ms_per_frame": 1e3 * busy_s / n as f64,
@@ -161,7 +168,8 @@ pub(crate) fn run(args: &TrackArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
         println!(
-            "tracked {n} frames ({flagged} flagged, mean confidence {:.3}, {:.2} ms/frame) → {}",
+            "tracked {n} frames ({flagged} flagged, {tip_flagged} probe tips withheld, mean \
+             confidence {:.3}, {:.2} ms/frame) → {}",
             conf_sum / n as f64,
             1e3 * busy_s / n as f64,
             args.out.display()
