@@ -26,6 +26,7 @@ pub mod error;
 pub mod figure;
 pub mod fit;
 pub mod heldout;
+pub mod memo;
 pub mod nominal;
 pub mod objective;
 pub mod options;
