@@ -39,12 +39,34 @@ fn script(dir: &Path, name: &str, line: &str) -> PathBuf {
          #SBATCH --cpus-per-task=1\n\
          #SBATCH --requeue\n\
          set -euo pipefail\n\
+         export RAYON_NUM_THREADS=\"$SLURM_CPUS_PER_TASK\"\n\
          {line}\n",
         last = TASKS - 1
     );
     let path = dir.join(format!("{name}.sbatch"));
     fs::write(&path, text).unwrap();
     path
+}
+
+/// The `--json` outputs of array task `task` (`slurm-JOB_TASK.out` in `dir`), oldest job first.
+fn task_outputs(dir: &Path, task: u32) -> Vec<Value> {
+    let mut jobs: Vec<(u64, PathBuf)> = fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter_map(|p| {
+            let name = p.file_name()?.to_str()?.strip_prefix("slurm-")?.to_string();
+            let job = name.strip_suffix(&format!("_{task}.out"))?.parse().ok()?;
+            Some((job, p))
+        })
+        .collect();
+    jobs.sort();
+    let parse = |p: &PathBuf| serde_json::from_slice(&fs::read(p).unwrap()).unwrap();
+    jobs.iter().map(|(_, p)| parse(p)).collect()
+}
+
+/// The array of every task, `0-(TASKS-1)`.
+fn all_tasks() -> String {
+    format!("0-{}", TASKS - 1)
 }
 
 /// `value` without the top-level `keys`.
@@ -142,7 +164,14 @@ fn batch(cluster: &Cluster, d: &Dirs) {
     }
     let line = "mesopush batch run batch.toml --shard \"$SLURM_ARRAY_TASK_ID/3\" --json";
     let s = script(&d.slurm, "batch", line);
-    cluster.run_array(&s, TASKS, &d.slurm, &d.bin, LIMIT);
+    cluster.run_array(&s, &all_tasks(), &d.slurm, &d.bin, LIMIT);
+    // A task submitted again (requeued, or `sbatch --array=1`) resumes its finished shard:
+    // nothing is re-run, and the merge below is unchanged.
+    cluster.run_array(&s, "1", &d.slurm, &d.bin, LIMIT);
+    let runs: Vec<Value> = task_outputs(&d.slurm, 1).iter().map(|v| v["session"].clone()).collect();
+    assert_eq!(runs.len(), 2, "task 1's outputs: {runs:?}");
+    assert_eq!((&runs[0]["ran"], &runs[1]["ran"]), (&8.into(), &0.into()), "{runs:?}");
+    assert_eq!(runs[1]["resumed"], 8, "{runs:?}");
     let shards = glob(&d.slurm.join("runs/batch"), "shard-");
     assert_eq!(shards, ["shard-00-of-03", "shard-01-of-03", "shard-02-of-03"]);
     let mut args = vec!["batch", "merge", "--json", "--out", "runs/batch-all"];
@@ -197,7 +226,7 @@ fn robustness(cluster: &Cluster, d: &Dirs) {
          --out \"runs/rob/$SLURM_ARRAY_TASK_ID\""
     );
     let s = script(&d.slurm, "robustness", &line);
-    cluster.run_array(&s, TASKS, &d.slurm, &d.bin, LIMIT);
+    cluster.run_array(&s, &all_tasks(), &d.slurm, &d.bin, LIMIT);
     let shards = glob(&d.slurm.join("runs/rob"), "");
     assert_eq!(shards, ["0", "1", "2"]);
     let mut args = vec!["robustness", "merge", "--out", "runs/rob-all", "--json"];
@@ -225,7 +254,7 @@ fn identify(cluster: &Cluster, d: &Dirs) {
          --sweep-out \"sweeps/sweep-$SLURM_ARRAY_TASK_ID.json\" --json"
     );
     let s = script(&d.slurm, "identify", &line);
-    cluster.run_array(&s, TASKS, &d.slurm, &d.bin, LIMIT);
+    cluster.run_array(&s, &all_tasks(), &d.slurm, &d.bin, LIMIT);
     let shards = glob(&d.slurm.join("sweeps"), "sweep-");
     assert_eq!(shards, ["sweep-0.json", "sweep-1.json", "sweep-2.json"]);
     let fit = "--optimize --max-evals 40 --bootstrap 2 --bootstrap-evals 10 \

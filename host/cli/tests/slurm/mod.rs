@@ -170,13 +170,13 @@ impl Cluster {
         c
     }
 
-    /// `sbatch --wait --array=0-(tasks-1) script` in `cwd` with `path` first in `PATH`
+    /// `sbatch --wait --array=ARRAY script` in `cwd` with `path` first in `PATH`
     /// (the job inherits the environment); panics with the job's and the daemons' logs
     /// when a task fails or the array is not done within `limit`.
     pub(crate) fn run_array(
         &self,
         script: &Path,
-        tasks: u32,
+        array: &str,
         cwd: &Path,
         path: &Path,
         limit: Duration,
@@ -189,7 +189,7 @@ impl Cluster {
         let mut child = self
             .client("sbatch")
             .arg("--wait")
-            .arg(format!("--array=0-{}", tasks - 1))
+            .arg(format!("--array={array}"))
             .arg(script)
             .current_dir(cwd)
             .env("PATH", search)
