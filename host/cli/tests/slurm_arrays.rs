@@ -182,10 +182,11 @@ fn batch(cluster: &Cluster, d: &Dirs) {
     // Wall-clock figures, and what only one side has: this run's session and directory,
     // the merge's inputs and outcome.
     let wall = ["wall_time_s", "trials_per_s", "session", "dir", "inputs", "outcome"];
-    assert_eq!(without(merged, &wall), without(whole, &wall), "batch summaries differ");
+    assert_eq!(without(merged, &wall), without(whole, &wall), "seed 11: batch summaries differ");
     let report = |dir: &Path, b: &str| mesopush(dir, &["batch", "report", "--json", b]);
     let (a, b) = (report(&d.slurm, "runs/batch-all"), report(&d.one, "runs/batch"));
-    assert_eq!(without(a["summary"].clone(), &wall), without(b["summary"].clone(), &wall));
+    let (a, b) = (without(a["summary"].clone(), &wall), without(b["summary"].clone(), &wall));
+    assert_eq!(a, b, "seed 11: the reports' summaries differ");
     assert_same_trials(&d.one.join("runs/batch"), &d.slurm.join("runs/batch-all"));
 }
 
@@ -239,7 +240,11 @@ fn robustness(cluster: &Cluster, d: &Dirs) {
     // What the row was read from (the plan file, the shard files' name) and the merge's
     // shard count differ; every number and the files must not.
     let source = ["plan", "shards"];
-    assert_eq!(without(merged, &source), without(whole, &source), "robustness estimates differ");
+    assert_eq!(
+        without(merged, &source),
+        without(whole, &source),
+        "seed 21: robustness estimates differ"
+    );
     assert_same_tree("robustness", &d.one.join("runs/rob-all"), &d.slurm.join("runs/rob-all"));
 }
 
@@ -269,6 +274,10 @@ fn identify(cluster: &Cluster, d: &Dirs) {
     args.extend(sweep.split(' ').chain(fit.split_whitespace()));
     let whole = mesopush(&d.one, &args);
     let wall = ["runtime_s"];
-    assert_eq!(without(merged, &wall), without(whole, &wall), "identification reports differ");
+    assert_eq!(
+        without(merged, &wall),
+        without(whole, &wall),
+        "seed 4: identification reports differ"
+    );
     assert_same_tree("identify", &d.one.join("ident"), &d.slurm.join("ident"));
 }
