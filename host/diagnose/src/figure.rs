@@ -20,7 +20,7 @@ const ROW_PX: u32 = 250;
 pub fn plot(d: &Diagnosis, path: &Path) -> Result<(), Error> {
     let err =
         |e: &dyn std::fmt::Display| Error::Parse { path: path.into(), message: e.to_string() };
-    let n = d.residuals.0.len().min(MAX_ROWS).max(1);
+    let n = d.residuals.0.len().clamp(1, MAX_ROWS);
     let rows = u32::try_from(n).unwrap_or(1);
     let root = BitMapBackend::new(path, (1200, 40 + ROW_PX * rows)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;

@@ -375,7 +375,7 @@ mod tests {
             })
             .collect();
         let fast = reversals_before(&cmd);
-        for i in 1..cmd.len() {
+        for (i, fast_i) in fast.iter().enumerate().skip(1) {
             let (mut last_rev, mut last_sign) = (f64::NEG_INFINITY, [0.0f64; 2]);
             for k in 1..i {
                 let d = cmd[k].probe_um - cmd[k - 1].probe_um;
@@ -389,7 +389,7 @@ mod tests {
                     }
                 }
             }
-            assert_eq!(fast[i].to_bits(), last_rev.to_bits(), "point {i}");
+            assert_eq!(fast_i.to_bits(), last_rev.to_bits(), "point {i}");
         }
         assert!(fast.iter().filter(|t| t.is_finite()).count() > 300, "reversals seen");
     }

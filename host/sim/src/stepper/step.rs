@@ -67,7 +67,7 @@ impl Simulator {
         self.contacts.extend(self.scratch.iter().map(|c| (*c, self.model.mu_wall)));
         // `Pose::rotate`'s arithmetic, the rotation built once for the three supports.
         let rot = Rotation2::new(state.peg.theta_rad);
-        let supports = self.model.support.points().map(|p| rot * &p);
+        let supports = self.model.support.points().map(|p| rot * p);
         let travel_um = self.pusher_travel_um(motion.d_um, motion.d_theta_rad);
         let lay = self.solve_aligned(state, &supports, motion, travel_um, &mut info)?;
         let z = &self.z;
