@@ -30,6 +30,7 @@ fn fail(path: &Path) -> impl Fn(mesopush_plot::Error) -> Error + '_ {
 /// Running success rate with its 95 % band, by trial index.
 pub fn success_over_time(finals: &[&AttemptRecord], path: &Path) -> Result<(), Error> {
     let draw = || -> DrawResult {
+        mesopush_plot::font::register()?;
         let area = BitMapBackend::new(path, (900, 450)).into_drawing_area();
         area.fill(&WHITE)?;
         let n_max = finals.last().map_or(1, |a| a.index + 1) as f64;
@@ -76,6 +77,7 @@ pub fn final_poses(
     path: &Path,
 ) -> Result<(), Error> {
     let draw = || -> DrawResult {
+        mesopush_plot::font::register()?;
         let area = BitMapBackend::new(path, (1011, 800)).into_drawing_area();
         area.fill(&WHITE)?;
         let (x0, x1) = (-1500.0, FIELD_UM[0] + 100.0);
@@ -121,6 +123,7 @@ pub fn final_poses(
 /// Wall time of every trial (final attempt), by trial index.
 pub fn timing(finals: &[&AttemptRecord], path: &Path) -> Result<(), Error> {
     let draw = || -> DrawResult {
+        mesopush_plot::font::register()?;
         let area = BitMapBackend::new(path, (900, 400)).into_drawing_area();
         area.fill(&WHITE)?;
         let n_max = finals.last().map_or(1, |a| a.index + 1) as f64;

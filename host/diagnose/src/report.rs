@@ -208,6 +208,7 @@ pub fn json(d: &Diagnosis) -> Value {
 pub fn plot(d: &Diagnosis, path: &Path) -> Result<(), Error> {
     let err =
         |e: &dyn std::fmt::Display| Error::Parse { path: path.into(), message: e.to_string() };
+    mesopush_plot::font::register().map_err(|e| err(&e))?;
     let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let panels = root.split_evenly((2, 1));
