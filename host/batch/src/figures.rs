@@ -29,6 +29,7 @@ fn fail(path: &Path) -> impl Fn(mesopush_plot::Error) -> Error + '_ {
 /// Running success rate with its 95 % band, by trial index.
 pub fn success_over_time(finals: &[&AttemptRecord], path: &Path) -> Result<(), Error> {
     let draw = || -> DrawResult {
+        mesopush_plot::font::register()?;
         let area = BitMapBackend::new(path, (900, 450)).into_drawing_area();
         area.fill(&WHITE)?;
         let n_max = finals.last().map_or(1, |a| a.index + 1) as f64;
@@ -101,6 +102,7 @@ pub fn final_poses(
     path: &Path,
 ) -> Result<(), Error> {
     let draw = || -> DrawResult {
+        mesopush_plot::font::register()?;
         let area = BitMapBackend::new(path, FIGURE_PX).into_drawing_area();
         let title = "Final peg positions (centre of mass) by verdict";
         let mut chart = fixture_chart(&area, title, walls)?;
@@ -155,6 +157,7 @@ pub fn what_is_timed(runner: &str) -> &'static str {
 /// names what was timed.
 pub fn timing(finals: &[&AttemptRecord], runner: &str, path: &Path) -> Result<(), Error> {
     let draw = || -> DrawResult {
+        mesopush_plot::font::register()?;
         let area = BitMapBackend::new(path, (900, 400)).into_drawing_area();
         area.fill(&WHITE)?;
         let n_max = finals.last().map_or(1, |a| a.index + 1) as f64;

@@ -22,6 +22,7 @@ pub fn plot(d: &Diagnosis, path: &Path) -> Result<(), Error> {
         |e: &dyn std::fmt::Display| Error::Parse { path: path.into(), message: e.to_string() };
     let n = d.residuals.0.len().clamp(1, MAX_ROWS);
     let rows = u32::try_from(n).unwrap_or(1);
+    mesopush_plot::font::register().map_err(|e| err(&e))?;
     let root = BitMapBackend::new(path, (1200, 40 + ROW_PX * rows)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let title = match d.residuals.0.len() {
