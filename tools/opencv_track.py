@@ -7,7 +7,9 @@ probe by a morphological opening with a disc wider than the needle (two chamfer 
 transforms, as ours), then the peg's centroid
 and orientation from coverage-weighted second moments (cv2.moments on the darkening image
 over the peg plus a 3 px band). Times only the per-frame processing (frames are loaded
-first), on one thread (cv2.setNumThreads(1)) unless --threads is given.
+first), on one thread (cv2.setNumThreads(1)) unless --threads is given. Like mesopush, the
+distance transforms and the labelling run on the mask's bounding box grown by a pixel
+(`--full-frame` for the whole frame, `--both` to time both modes in one run).
 
     pip install opencv-python-headless numpy
     python3 tools/opencv_track.py FRAMES_DIR --background bg.png [--out pose.csv]
@@ -48,18 +50,33 @@ def fit_light(bg):
 
 
 class Tracker:
-    def __init__(self, bg, sx, sy):
+    def __init__(self, bg, sx, sy, crop=True):
+        self.crop = crop
         self.bg = bg.astype(np.float32)
         self.inv_light = fit_light(bg)
         self.sx, self.sy = sx, sy
         self.band = cv2.getStructuringElement(cv2.MORPH_RECT, (2 * BAND_PX + 1, 2 * BAND_PX + 1))
 
     def measure(self, frame):
-        dark = cv2.multiply(cv2.subtract(self.bg, frame.astype(np.float32)), self.inv_light)
-        dark8 = cv2.convertScaleAbs(dark, alpha=255.0)
-        thr, mask = cv2.threshold(dark8, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+        dark_full = cv2.multiply(cv2.subtract(self.bg, frame.astype(np.float32)), self.inv_light)
+        dark8 = cv2.convertScaleAbs(dark_full, alpha=255.0)
+        thr, mask_full = cv2.threshold(dark8, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
         if thr < 0.12 * 255:
-            _, mask = cv2.threshold(dark8, int(0.12 * 255), 255, cv2.THRESH_BINARY)
+            _, mask_full = cv2.threshold(dark8, int(0.12 * 255), 255, cv2.THRESH_BINARY)
+        h, w = mask_full.shape
+        # As ours: the distance transforms, the labelling and the moments run on the mask's
+        # bounding box, grown by the moments' band and a pixel (exact: every distance and
+        # every weighted pixel they need lies inside it); --full-frame runs them on the whole
+        # frame, as this script first did.
+        ox, oy, ex, ey = 0, 0, w, h
+        if self.crop:
+            bx, by, bw_, bh_ = cv2.boundingRect(mask_full)
+            if bw_ == 0:
+                return None, None
+            g = BAND_PX + 2
+            ox, oy = max(bx - g, 0), max(by - g, 0)
+            ex, ey = min(bx + bw_ + g, w), min(by + bh_ + g, h)
+        mask, dark = mask_full[oy:ey, ox:ex], dark_full[oy:ey, ox:ex]
         # opening by a disc of OPEN_RADIUS_PX via two chamfer distance transforms (as ours):
         # the core lies deeper than the radius; the opening is what lies within it of the core
         depth = cv2.distanceTransform(mask, cv2.DIST_L2, 3)
@@ -68,9 +85,9 @@ class Tracker:
         opened = np.where(to_core <= OPEN_RADIUS_PX + 0.34, mask, np.uint8(0))
         thin = cv2.subtract(mask, opened)
         n, labels, stats, _ = cv2.connectedComponentsWithStats(thin, connectivity=8)
-        h, w = mask.shape
         x, y, bw, bh, area = (stats[:, i] for i in range(5))
-        on_border = (x == 0) | (y == 0) | (x + bw == w) | (y + bh == h)
+        # the frame's border, in the crop's coordinates
+        on_border = (x + ox == 0) | (y + oy == 0) | (x + ox + bw == w) | (y + oy + bh == h)
         keep = (area >= OPEN_RADIUS_PX ** 2 // 2) | (on_border & (area >= 12))
         keep[0] = False
         needle = np.where(keep[labels], np.uint8(255), np.uint8(0))
@@ -79,20 +96,21 @@ class Tracker:
             i = int(np.argmax(np.where(keep, area, -1)))
             bx, by = x[i], y[i]
             ys, xs = np.nonzero(labels[by:by + bh[i], bx:bx + bw[i]] == i)
-            xs, ys = xs + bx, ys + by
+            xs, ys = xs + bx + ox, ys + by + oy
             edge = (xs == 0) | (ys == 0) | (xs == w - 1) | (ys == h - 1)
             if edge.any():
-                ex, ey = xs[edge].mean(), ys[edge].mean()
-                k = np.argmax((xs - ex) ** 2 + (ys - ey) ** 2)
+                ex_, ey_ = xs[edge].mean(), ys[edge].mean()
+                k = np.argmax((xs - ex_) ** 2 + (ys - ey_) ** 2)
                 tip = ((xs[k] + 0.5) * self.sx, (ys[k] + 0.5) * self.sy)
         rest = cv2.subtract(mask, needle)
         n, labels, stats, _ = cv2.connectedComponentsWithStats(rest, connectivity=8)
         if n < 2:
             return None, tip
+        hc, wc = mask.shape
         peg_label = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
         x, y, bw, bh, _ = stats[peg_label]
         x0, y0 = max(x - BAND_PX - 1, 0), max(y - BAND_PX - 1, 0)
-        x1, y1 = min(x + bw + BAND_PX + 1, w), min(y + bh + BAND_PX + 1, h)
+        x1, y1 = min(x + bw + BAND_PX + 1, wc), min(y + bh + BAND_PX + 1, hc)
         peg = (labels[y0:y1, x0:x1] == peg_label).astype(np.uint8)
         inner = cv2.erode(peg, self.band)
         contrast = float(np.median(dark[y0:y1, x0:x1][inner > 0])) if inner.any() else 0.5
@@ -109,7 +127,7 @@ class Tracker:
         mu02 = m["mu02"] * self.sy * self.sy
         mu11 = m["mu11"] * self.sx * self.sy
         theta = 0.5 * math.atan2(2 * mu11, mu20 - mu02)
-        pose = ((x0 + cx + 0.5) * self.sx, (y0 + cy + 0.5) * self.sy, theta)
+        pose = ((ox + x0 + cx + 0.5) * self.sx, (oy + y0 + cy + 0.5) * self.sy, theta)
         return pose, tip
 
 
@@ -120,6 +138,10 @@ def main():
     ap.add_argument("--out", type=pathlib.Path)
     ap.add_argument("--threads", type=int, default=1, help="OpenCV threads (default 1: one core)")
     ap.add_argument("--repeat", type=int, default=5, help="passes over the frames for timing")
+    ap.add_argument("--full-frame", action="store_true",
+                    help="distance transforms and labelling on the whole frame (default: on the "
+                         "mask's bounding box, as mesopush does)")
+    ap.add_argument("--both", action="store_true", help="also time the other mode, in the same run")
     args = ap.parse_args()
     cv2.setNumThreads(args.threads)
     bg = cv2.imread(str(args.background), cv2.IMREAD_GRAYSCALE)
@@ -131,15 +153,18 @@ def main():
         sys.exit(f"{args.frames_dir}: no PNG frames")
     frames = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in paths]
     h, w = bg.shape
-    tracker = Tracker(bg, FIELD_UM[0] / w, FIELD_UM[1] / h)
+    tracker = Tracker(bg, FIELD_UM[0] / w, FIELD_UM[1] / h, crop=not args.full_frame)
     results = [tracker.measure(f) for f in frames]
-    start, cpu_start = time.perf_counter(), time.process_time()
-    for _ in range(args.repeat):
-        for f in frames:
-            tracker.measure(f)
     runs = args.repeat * len(frames)
-    per_frame_ms = 1e3 * (time.perf_counter() - start) / runs
-    cpu_ms = 1e3 * (time.process_time() - cpu_start) / runs
+
+    def timed(t):
+        start, cpu_start = time.perf_counter(), time.process_time()
+        for _ in range(args.repeat):
+            for f in frames:
+                t.measure(f)
+        return 1e3 * (time.perf_counter() - start) / runs, 1e3 * (time.process_time() - cpu_start) / runs
+
+    per_frame_ms, cpu_ms = timed(tracker)
     if args.out:
         with open(args.out, "w", newline="") as fh:
             out = csv.writer(fh)
@@ -149,8 +174,14 @@ def main():
                 row += ["", "", ""] if pose is None else [f"{pose[0]:.3f}", f"{pose[1]:.3f}", f"{pose[2]:.6f}"]
                 row += ["", ""] if tip is None else [f"{tip[0]:.3f}", f"{tip[1]:.3f}"]
                 out.writerow(row)
+    mode = "whole frame" if args.full_frame else "bounding-box crop, as mesopush"
     print(f"opencv {cv2.__version__}: {len(frames)} frames {w}x{h}, {per_frame_ms:.3f} ms/frame wall, "
-          f"{cpu_ms:.3f} ms/frame CPU ({args.threads} thread(s), {args.repeat} passes)")
+          f"{cpu_ms:.3f} ms/frame CPU ({args.threads} thread(s), {args.repeat} passes, {mode})")
+    if args.both:
+        other = Tracker(bg, FIELD_UM[0] / w, FIELD_UM[1] / h, crop=args.full_frame)
+        wall2, cpu2 = timed(other)
+        mode2 = "bounding-box crop, as mesopush" if args.full_frame else "whole frame"
+        print(f"opencv {cv2.__version__}: {wall2:.3f} ms/frame wall, {cpu2:.3f} ms/frame CPU ({mode2})")
 
 
 if __name__ == "__main__":

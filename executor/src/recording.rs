@@ -95,8 +95,11 @@ pub struct Recording {
     pub t0_exec_us: u64,
     /// The executor clock's epoch on `CLOCK_MONOTONIC`, µs.
     pub exec_epoch_mono_us: u64,
-    /// How the trial ended (`Done`, `Aborted`, `Faulted(..)`), or `none`.
+    /// How the trial ended: `done`, `aborted`, `faulted`, or `none` (not seen).
     pub end: String,
+    /// For a faulted trial, what happened and what to try, in words.
+    #[serde(default)]
+    pub end_reason: Option<String>,
     /// When it ended, µs since the trial's start.
     pub end_t_us: Option<i64>,
     /// Whether the recorder saw the end and the tail after it.

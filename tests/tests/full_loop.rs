@@ -196,5 +196,26 @@ fn a_controller_fault_stops_the_probe_and_faults_the_trial() {
     assert!(after.len() >= 2, "seed {seed}: {} frames after the fault", after.len());
     assert!(after.windows(2).all(|w| w[0] == w[1]), "seed {seed}: probe moved after the fault");
     assert!(r.segments_applied < r.segments_expected, "seed {seed}");
+    no_debug_text(&r.dir, reason, seed);
     let _ = Pose::default();
+}
+
+/// What an operator reads of a faulted trial — the reason, events.csv, trial.json — is in
+/// words: no Rust debug text (`Controller(FaultReport { .. })`, `Some(Pose { .. })`).
+fn no_debug_text(dir: &std::path::Path, reason: &str, seed: u64) {
+    let events = std::fs::read_to_string(dir.join("events.csv")).unwrap();
+    let meta = std::fs::read_to_string(dir.join("trial.json")).unwrap();
+    let outcome: serde_json::Value = serde_json::from_str(&meta).unwrap();
+    let outcome = outcome["outcome"].to_string();
+    for (what, text) in [("reason", reason), ("events.csv", &events), ("outcome", &outcome)] {
+        let body = if what == "outcome" { text.trim_matches(['{', '}']) } else { text };
+        for debug in ["{", "Some(", "None", "FaultReport", "Controller(", "Pose "] {
+            assert!(!body.contains(debug), "seed {seed}: {what} holds {debug:?}:\n{text}");
+        }
+    }
+    let verdict = events.lines().find(|l| l.contains(",verdict,")).expect("a verdict row");
+    assert!(
+        verdict.contains("final tracked pose x ") || verdict.contains("not judged"),
+        "{verdict}"
+    );
 }

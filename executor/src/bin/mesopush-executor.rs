@@ -428,12 +428,12 @@ fn report_stop<S: PlanStore>(
     end: &ShellEnd,
     stats: &ShellStats,
     endpoint: &Endpoint<S, CAP, LA, W>,
-    camera_end: Option<impl std::fmt::Debug>,
+    camera_end: Option<std::thread::Result<CameraEnd>>,
     c: &CameraCounters,
 ) {
     let sends = &stats.sends;
     eprintln!(
-        "executor stopped: {end:?}; loop: {} passes, max late {} µs, {} log records ({} \
+        "executor stopped: {end}; loop: {} passes, max late {} µs, {} log records ({} \
          lost); send deviation (write − schedule) p50 {} µs, p99 {} µs, max {} µs over {} \
          timed sends ({} batched, {} released by flow control)",
         stats.iterations,
@@ -447,10 +447,20 @@ fn report_stop<S: PlanStore>(
         sends.batched,
         sends.flow_released,
     );
+    let camera = match camera_end {
+        None => "none".to_string(),
+        Some(Ok(e)) => e.to_string(),
+        Some(Err(_)) => "its thread panicked".to_string(),
+    };
+    let s = endpoint.stats();
     eprintln!(
-        "{:?}; camera {camera_end:?}: {} frames, {} not \
+        "links: {} messages to the host and {} to the controller lost to a full outbox, host \
+         line down {} times, controller line down {} times, {} overlong frames skipped",
+        s.host_dropped, s.ctrl_dropped, s.host_link_downs, s.ctrl_link_downs, s.overlong_frames
+    );
+    eprintln!(
+        "camera {camera}: {} frames, {} not \
          stamped (loop queue full), {} images not recorded (recorder queue full)",
-        endpoint.stats(),
         c.received.load(Ordering::Relaxed),
         c.loop_dropped.load(Ordering::Relaxed),
         c.recorder_dropped.load(Ordering::Relaxed),

@@ -59,6 +59,16 @@ pub enum CameraEnd {
     Failed(io::Error),
 }
 
+impl core::fmt::Display for CameraEnd {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Stopped => f.write_str("stopped"),
+            Self::Closed => f.write_str("closed by the camera"),
+            Self::Failed(e) => write!(f, "failed ({e})"),
+        }
+    }
+}
+
 /// Connects to the camera at `path` and starts the reader thread.
 pub fn spawn_camera_reader(
     path: &Path,

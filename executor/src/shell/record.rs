@@ -252,9 +252,12 @@ impl ExecRecorder {
         if let Some(store) = rec.store.take() {
             store.finish().map_err(io::Error::other)?;
         }
-        let (end_kind, end_t_us) = match rec.end {
-            Some((t, k)) => (format!("{k:?}"), Some(t as i64 - rec.t0_us as i64)),
-            None => ("none".to_string(), None),
+        let (end_kind, end_reason, end_t_us) = match rec.end {
+            Some((t, k)) => {
+                let (kind, reason) = end_words(k);
+                (kind.to_string(), reason, Some(t as i64 - rec.t0_us as i64))
+            }
+            None => ("none".to_string(), None, None),
         };
         let recording = Recording {
             format: RECORDING_FORMAT.to_string(),
@@ -263,6 +266,7 @@ impl ExecRecorder {
             t0_exec_us: rec.t0_us,
             exec_epoch_mono_us: self.clock.epoch_mono_us(),
             end: end_kind,
+            end_reason,
             end_t_us,
             complete,
             frames: rec.recorded,
@@ -293,4 +297,39 @@ fn store_frame(
     let page =
         store.push(meta, img.width_px, img.height_px, &img.pixels).map_err(io::Error::other)?;
     Ok(page_ref(page))
+}
+
+/// `recording.json`'s `end` (a key: `done`, `aborted`, `faulted`) and, for a fault, what
+/// happened in words (the protocol's operator text, never Rust debug text).
+fn end_words(k: TrialEventKind) -> (&'static str, Option<String>) {
+    match k {
+        TrialEventKind::Started => ("started", None),
+        TrialEventKind::Done => ("done", None),
+        TrialEventKind::Aborted => ("aborted", None),
+        TrialEventKind::Faulted(f) => ("faulted", Some(f.to_string())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mesopush_protocol::ctrl::{FaultCode, FaultReport};
+    use mesopush_protocol::host::TrialFault;
+
+    #[test]
+    fn a_faulted_end_is_a_key_and_the_fault_in_words() {
+        let report = FaultReport {
+            ctrl_time_us: 5,
+            code: FaultCode::Stall,
+            segment_id: Some(3),
+            x_nm: -49_000_000,
+            y_nm: 1_000,
+        };
+        let (kind, reason) = end_words(TrialEventKind::Faulted(TrialFault::Controller(report)));
+        assert_eq!(kind, "faulted");
+        let reason = reason.unwrap();
+        assert!(reason.contains("the stage stalled") && reason.contains("(move 3)"), "{reason}");
+        assert!(!reason.contains('{') && !reason.contains("Controller("), "{reason}");
+        assert_eq!(end_words(TrialEventKind::Done), ("done", None));
+    }
 }

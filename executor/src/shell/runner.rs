@@ -68,6 +68,16 @@ pub enum ShellEnd {
     CtrlLine(io::Error),
 }
 
+impl core::fmt::Display for ShellEnd {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Stopped => f.write_str("stop requested"),
+            Self::HostLine(e) => write!(f, "the host line closed or failed ({e})"),
+            Self::CtrlLine(e) => write!(f, "the controller line closed or failed ({e})"),
+        }
+    }
+}
+
 /// The loop and its threads.
 #[derive(Debug)]
 pub struct Shell {

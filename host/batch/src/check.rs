@@ -55,10 +55,14 @@ pub fn against_log(dir: &Path, result: TrialResult) -> TrialResult {
         TrialVerdict::Timeout | TrialVerdict::Error => true,
     };
     if !agrees {
+        let inserted = match o.inserted {
+            Some(true) => "yes",
+            Some(false) => "no",
+            None => "not judged",
+        };
         let why = format!(
-            "trial.json says state {:?}, inserted {:?}, which does not support `{}`",
+            "trial.json says state {}, inserted {inserted}, which does not support `{}`",
             o.state,
-            o.inserted,
             v.as_str()
         );
         return downgrade(result, why, 0);

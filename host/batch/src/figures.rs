@@ -8,8 +8,7 @@ use super::stats::wilson95;
 use crate::Error;
 use mesopush_core::geom::ConvexPolygon;
 use mesopush_plot::DrawResult;
-use mesopush_plot::fixture_view::draw_walls_and_field;
-use mesopush_sim::fixture::FIELD_UM;
+use mesopush_plot::fixture_view::{FIGURE_PX, VIEW_UM, fixture_chart};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -30,6 +29,7 @@ fn fail(path: &Path) -> impl Fn(mesopush_plot::Error) -> Error + '_ {
 /// Running success rate with its 95 % band, by trial index.
 pub fn success_over_time(finals: &[&AttemptRecord], path: &Path) -> Result<(), Error> {
     let draw = || -> DrawResult {
+        mesopush_plot::font::register()?;
         let area = BitMapBackend::new(path, (900, 450)).into_drawing_area();
         area.fill(&WHITE)?;
         let n_max = finals.last().map_or(1, |a| a.index + 1) as f64;
@@ -38,8 +38,13 @@ pub fn success_over_time(finals: &[&AttemptRecord], path: &Path) -> Result<(), E
             .margin(10)
             .x_label_area_size(35)
             .y_label_area_size(50)
-            .build_cartesian_2d(0.0..n_max, 0.0..1.0)?;
-        chart.configure_mesh().x_desc("trial index").y_desc("success rate").draw()?;
+            .build_cartesian_2d(0.0..n_max, 0.0..1.45)?;
+        chart
+            .configure_mesh()
+            .x_desc("trial index")
+            .y_desc("share of trials inserted so far")
+            .y_labels(8)
+            .draw()?;
         let (mut k, mut rate, mut lo, mut hi) = (0u64, vec![], vec![], vec![]);
         for (i, a) in finals.iter().enumerate() {
             k += u64::from(a.result.verdict == TrialVerdict::Inserted);
@@ -51,17 +56,38 @@ pub fn success_over_time(finals: &[&AttemptRecord], path: &Path) -> Result<(), E
             hi.push((x, h));
         }
         let band: Vec<_> = hi.iter().copied().chain(lo.iter().rev().copied()).collect();
-        chart.draw_series(std::iter::once(Polygon::new(band, BLUE.mix(0.15).filled())))?;
+        chart
+            .draw_series(std::iter::once(Polygon::new(band, BLUE.mix(0.15).filled())))?
+            .label("Wilson 95 % band")
+            .legend(|(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 20, y + 5)], BLUE.mix(0.15).filled())
+            });
         chart
             .draw_series(LineSeries::new(rate, BLUE.stroke_width(2)))?
             .label("running success rate")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
-        let marks = finals.iter().map(|a| {
-            let y = if a.result.verdict == TrialVerdict::Inserted { 0.99 } else { 0.01 };
-            Circle::new((a.index as f64, y), 2, colour(a.result.verdict).filled())
-        });
-        chart.draw_series(marks)?;
-        chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+        for v in TrialVerdict::ALL {
+            let y = if v == TrialVerdict::Inserted { 1.0 } else { 0.0 };
+            let c = colour(v);
+            let marks: Vec<_> = finals
+                .iter()
+                .filter(|a| a.result.verdict == v)
+                .map(|a| Circle::new((a.index as f64, y), 2, c.filled()))
+                .collect();
+            if marks.is_empty() {
+                continue;
+            }
+            chart
+                .draw_series(marks)?
+                .label(format!("trial {} (marked at {y:.0})", v.as_str()))
+                .legend(move |(x, y)| Circle::new((x + 8, y), 3, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .border_style(BLACK)
+            .background_style(WHITE)
+            .draw()?;
         area.present()?;
         Ok(())
     };
@@ -76,23 +102,19 @@ pub fn final_poses(
     path: &Path,
 ) -> Result<(), Error> {
     let draw = || -> DrawResult {
-        let area = BitMapBackend::new(path, (1011, 800)).into_drawing_area();
-        area.fill(&WHITE)?;
-        let (x0, x1) = (-1500.0, FIELD_UM[0] + 100.0);
-        let (y0, y1) = (-100.0, FIELD_UM[1] + 100.0);
-        let mut chart = ChartBuilder::on(&area)
-            .caption("Final peg positions (COM) by verdict", ("sans-serif", 20))
-            .margin(10)
-            .x_label_area_size(35)
-            .y_label_area_size(55)
-            .build_cartesian_2d(x0..x1, y1..y0)?;
-        chart.configure_mesh().x_desc("x [µm]").y_desc("y [µm] (down)").disable_mesh().draw()?;
-        draw_walls_and_field(&mut chart, walls, (x0, x1, y0, y1))?;
+        mesopush_plot::font::register()?;
+        let area = BitMapBackend::new(path, FIGURE_PX).into_drawing_area();
+        let title = "Final peg positions (centre of mass) by verdict";
+        let mut chart = fixture_chart(&area, title, walls)?;
+        let (x0, x1, y0, y1) = VIEW_UM;
         if let Some(g) = goal {
             let mut pts: Vec<_> =
                 g.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect();
             pts.push(pts[0]);
-            chart.draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(1))))?;
+            chart
+                .draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(2))))?
+                .label("goal region")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], GREEN.stroke_width(2)));
         }
         for v in TrialVerdict::ALL {
             let pts: Vec<(f64, f64)> = finals
@@ -111,31 +133,66 @@ pub fn final_poses(
                 .label(format!("{} ({})", v.as_str(), pts.len()))
                 .legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled()));
         }
-        chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
+            .border_style(BLACK)
+            .background_style(WHITE)
+            .draw()?;
         area.present()?;
         Ok(())
     };
     draw().map_err(fail(path))
 }
 
-/// Wall time of every trial (final attempt), by trial index.
-pub fn timing(finals: &[&AttemptRecord], path: &Path) -> Result<(), Error> {
+/// What a trial's wall time covers under `runner` (the batch file's `runner`).
+pub fn what_is_timed(runner: &str) -> &'static str {
+    match runner {
+        "rig" => "the whole loop on the firmware simulator (executor, controller, camera, tracker)",
+        _ => "the host simulator and the tracker in one process (no executor, no controller)",
+    }
+}
+
+/// Wall time of every trial (final attempt), by trial index, coloured by verdict; `runner`
+/// names what was timed.
+pub fn timing(finals: &[&AttemptRecord], runner: &str, path: &Path) -> Result<(), Error> {
     let draw = || -> DrawResult {
+        mesopush_plot::font::register()?;
         let area = BitMapBackend::new(path, (900, 400)).into_drawing_area();
         area.fill(&WHITE)?;
         let n_max = finals.last().map_or(1, |a| a.index + 1) as f64;
         let t_max = finals.iter().map(|a| a.wall_time_s * 1e3).fold(1.0, f64::max) * 1.1;
         let mut chart = ChartBuilder::on(&area)
-            .caption("Wall time per trial (whole loop incl. log writes)", ("sans-serif", 18))
+            .caption(
+                format!("Wall time per trial, log writes included: {}", what_is_timed(runner)),
+                ("sans-serif", 15),
+            )
             .margin(10)
             .x_label_area_size(35)
             .y_label_area_size(55)
-            .build_cartesian_2d(0.0..n_max, 0.0..t_max)?;
-        chart.configure_mesh().x_desc("trial index").y_desc("wall time [ms]").draw()?;
-        chart.draw_series(finals.iter().map(|a| {
-            let c = colour(a.result.verdict);
-            Circle::new((a.index as f64, a.wall_time_s * 1e3), 2, c.filled())
-        }))?;
+            .build_cartesian_2d(0.0..n_max, 0.0..t_max * 1.3)?;
+        chart.configure_mesh().x_desc("trial index").y_desc("wall time (ms)").draw()?;
+        for v in TrialVerdict::ALL {
+            let c = colour(v);
+            let pts: Vec<_> = finals
+                .iter()
+                .filter(|a| a.result.verdict == v)
+                .map(|a| Circle::new((a.index as f64, a.wall_time_s * 1e3), 2, c.filled()))
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            chart
+                .draw_series(pts)?
+                .label(format!("trial {}", v.as_str()))
+                .legend(move |(x, y)| Circle::new((x + 8, y), 3, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .border_style(BLACK)
+            .background_style(WHITE)
+            .draw()?;
         area.present()?;
         Ok(())
     };

@@ -116,7 +116,7 @@ fn markdown(b: &Loaded, s: &Summary, finals: &[&AttemptRecord]) -> String {
     }
     faults_and_reasons(&mut m, s);
     integrity(&mut m, s);
-    timing(&mut m, s, finals);
+    timing(&mut m, s, finals, &spec.runner);
     m.push_str("## Figures\n\n![success over time](success.png)\n\n![final poses](final_poses.png)\n\n![timing](timing.png)\n\n");
     m.push_str("Per-trial rows: `trials.csv`; summary: `summary.json`.\n");
     m
@@ -198,13 +198,15 @@ fn integrity(m: &mut String, s: &Summary) {
     m.push('\n');
 }
 
-fn timing(m: &mut String, s: &Summary, finals: &[&AttemptRecord]) {
+fn timing(m: &mut String, s: &Summary, finals: &[&AttemptRecord], runner: &str) {
     let mut wall: Vec<f64> = finals.iter().map(|a| a.wall_time_s * 1e3).collect();
     let _ = writeln!(m, "\n## Timing\n\n| | |\n|---|---:|");
     let _ = writeln!(
         m,
-        "| wall time, all attempts | {:.1} s |\n| **trials per second (whole loop)** | **{:.2}** |",
-        s.wall_time_s, s.trials_per_s
+        "| wall time, all attempts | {:.1} s |\n| **trials per second** | **{:.2}** |\n| timed | {} |",
+        s.wall_time_s,
+        s.trials_per_s,
+        figures::what_is_timed(runner)
     );
     let _ = writeln!(
         m,
@@ -230,7 +232,7 @@ pub fn write(dir: &Path, out: &Path) -> Result<Written, Error> {
     figures::success_over_time(&finals, &figs[0])?;
     let walls = fixture.as_ref().map_or(&[][..], |f| f.walls.as_slice());
     figures::final_poses(&finals, walls, fixture.as_ref().map(|f| &f.goal), &figs[1])?;
-    figures::timing(&finals, &figs[2])?;
+    figures::timing(&finals, &b.manifest.spec.runner, &figs[2])?;
     write_csv(&finals, &out.join("trials.csv"))?;
     let json = serde_json::to_string_pretty(&s).expect("summary serialises");
     std::fs::write(out.join("summary.json"), json).map_err(|e| Error::io(out, e))?;

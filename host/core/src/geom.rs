@@ -50,6 +50,14 @@ impl Pose {
     }
 }
 
+/// For people: `x -277.7 µm, y 1508.2 µm, θ 3.74°` (θ in degrees, as operators give it).
+impl std::fmt::Display for Pose {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let deg = self.theta_rad.to_degrees();
+        write!(f, "x {:.1} µm, y {:.1} µm, θ {deg:.2}°", self.x_um, self.y_um)
+    }
+}
+
 /// 2D cross product (z component of the 3D cross product).
 pub fn cross(a: &Vec2, b: &Vec2) -> f64 {
     a.x * b.y - a.y * b.x

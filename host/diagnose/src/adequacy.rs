@@ -74,21 +74,27 @@ pub struct Judgement {
 }
 
 impl AllTrials<'_> {
-    /// The adequacy check of a diagnosis whose nominal training fit is `nominal`, held-out
+    /// The adequacy check of a diagnosis whose nominal training fits are `nominals` (the
+    /// kept support family's first, then any simpler family's: a free support bent to two
+    /// training pushes may refit worse on every trial than the shifted one does), held-out
     /// winner `winner` (if any) and nominal held-out error `e0` against the floor `band`.
+    /// The nominal all-trial error is the best of their refits.
     pub fn judge(
         &self,
-        nominal: &Fit,
+        nominals: &[&Fit],
         winner: Option<&Fit>,
         e0: f64,
         band: f64,
         opts: &Options,
     ) -> Result<Judgement, Error> {
         let mut j = Judgement { nominal_norm: None, effect_norm: None, overrules: false };
-        if e0 <= band {
+        if e0 <= band || nominals.is_empty() {
             return Ok(j);
         }
-        let e_all = self.refit(nominal, opts.nominal_evals / 2)?;
+        let mut e_all = f64::INFINITY;
+        for n in nominals {
+            e_all = e_all.min(self.refit(n, opts.nominal_evals / 2)?);
+        }
         j.nominal_norm = Some(e_all);
         if e_all > band {
             return Ok(j);

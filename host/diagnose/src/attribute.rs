@@ -185,7 +185,9 @@ pub fn diagnose(
     }
     let (verdict, best, ambiguity) = decide(&scores, &fits, e0, band / opts.floor_factor, opts);
     let batch = AllTrials { all: &all, settings: s, noise: &noise, with_tip };
-    let adequacy = batch.judge(&nominal, best, e0, band, opts)?;
+    let nominals: Vec<&Fit> =
+        if support_fit.family == "shifted" { vec![&nominal] } else { vec![&nominal, &shifted] };
+    let adequacy = batch.judge(&nominals, best, e0, band, opts)?;
     let (verdict, best, ambiguity) =
         if adequacy.overrules { (Verdict::None, None, None) } else { (verdict, best, ambiguity) };
     let lead = training_lead(&scores, opts).filter(|_| verdict == Verdict::Unexplained);

@@ -13,8 +13,8 @@
 //! ([`report`]). Batches to test it on: [`synth`] (synthetic, one undeclared effect),
 //! [`rig_batch`] (through the whole simulated loop) and the experiment over both, [`confusion`].
 //!
-//! May depend on: `mesopush-core`, `mesopush-sim`, `mesopush-trial`, `mesopush-ident` and
-//! `mesopush-rig`. Never on planning, batches or the command line.
+//! May depend on: `mesopush-core`, `mesopush-sim`, `mesopush-trial`, `mesopush-ident`,
+//! `mesopush-rig` and `mesopush-plot` (its embedded font). Never on planning, batches or the command line.
 
 pub mod adequacy;
 pub mod attribute;
@@ -23,8 +23,10 @@ pub mod confusion;
 pub mod data;
 pub mod decide;
 pub mod error;
+pub mod figure;
 pub mod fit;
 pub mod heldout;
+pub mod memo;
 pub mod nominal;
 pub mod objective;
 pub mod options;

@@ -4,13 +4,41 @@
 //! ([`residuals`], for held-out errors and the report).
 
 use super::data::TrialData;
-use super::predict::predict;
+use super::memo::{cached, model_key};
+use super::predict::{Prediction, predict};
 use super::residual::{Noise, Residual};
 use crate::Error;
 use mesopush_sim::{Model, SimSettings};
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// `predict`, through the memo ([`super::memo`]): a fit evaluates many a model more than
+/// once; `key` is the [`model_key`] of `model` and `settings`.
+fn predicted(
+    t: &TrialData,
+    model: &Model,
+    settings: &SimSettings,
+    key: &str,
+) -> Result<Arc<Prediction>, Error> {
+    cached(t, key, || predict(t, model, settings))
+}
 
 /// Loss of a parameter set that cannot be simulated (kept finite so the simplex moves away).
 pub const FAILED: f64 = 1e12;
+
+/// The residual of `model` on each of `trials`, replayed in parallel and returned in
+/// order (so every sum over them adds the same numbers in the same order as one by one).
+fn each_residual(
+    trials: &[TrialData],
+    model: &Model,
+    settings: &SimSettings,
+) -> Vec<Result<Residual, Error>> {
+    let key = model_key("predict", model, settings);
+    trials
+        .par_iter()
+        .map(|t| predicted(t, model, settings, &key).map(|p| Residual::new(t, &p)))
+        .collect()
+}
 
 /// The weighted sum of squared residuals of `model` over `trials` (each channel divided by
 /// its noise variance) and the number of scalar residuals in it.
@@ -25,10 +53,9 @@ pub fn loss(
     }
     let mut sum = 0.0;
     let mut n = 0;
-    for t in trials {
-        match predict(t, model, settings) {
-            Ok(pred) => {
-                let r = Residual::new(t, &pred);
+    for r in each_residual(trials, model, settings) {
+        match r {
+            Ok(r) => {
                 let (s, k) = r.weighted_sse(noise);
                 sum += s;
                 n += k;
@@ -51,27 +78,26 @@ pub fn residual_vector(
         return None;
     }
     let mut out = Vec::new();
-    for t in trials {
-        let pred = predict(t, model, settings).ok()?;
-        Residual::new(t, &pred).weighted_into(noise, &mut out);
+    for r in each_residual(trials, model, settings) {
+        r.ok()?.weighted_into(noise, &mut out);
     }
     Some(out)
 }
 
 /// The residuals of `model` on each of `trials`; a trial it cannot simulate is an error
-/// naming it.
+/// naming it (the first such, in order).
 pub fn residuals(
     trials: &[TrialData],
     model: &Model,
     s: &SimSettings,
 ) -> Result<Vec<Residual>, Error> {
-    trials
-        .iter()
-        .map(|t| {
-            let p = predict(t, model, s).map_err(|e| {
+    each_residual(trials, model, s)
+        .into_iter()
+        .zip(trials)
+        .map(|(r, t)| {
+            r.map_err(|e| {
                 Error::invalid("diagnose", format!("trial {} cannot be simulated: {e}", t.id))
-            })?;
-            Ok(Residual::new(t, &p))
+            })
         })
         .collect()
 }

@@ -5,6 +5,7 @@
 //! model's prediction.
 
 use super::data::TrialData;
+use super::memo::cached;
 use crate::Error;
 use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
 use mesopush_sim::contact::closest_on_polygon;
@@ -12,6 +13,7 @@ use mesopush_sim::effects::{Backlash, Effects, apply_scale_error, remove_scale_e
 use mesopush_sim::{
     Model, PathReplay, PathSample, ProbePoint, Pusher, SimSettings, Simulator, follow_path,
 };
+use std::convert::Infallible;
 
 /// The predicted measurement of every frame of a trial.
 #[derive(Debug, Clone, PartialEq)]
@@ -201,8 +203,12 @@ fn predict_with(
         lcp_solves: 0,
         start_separation_um: 0.0,
     };
+    // The same at every evaluation with the same backlash (the tip path) and part: kept.
     let (mut starts, clear) = if restarts {
-        restart_frames(data, &path, &polygon)
+        let key = format!("restart_frames {:?} {polygon:?}", fx.backlash_um);
+        let Ok(r) =
+            cached(data, &key, || Ok::<_, Infallible>(restart_frames(data, &path, &polygon)));
+        r.as_ref().clone()
     } else {
         (vec![0], vec![false; data.frames.len()])
     };
@@ -231,7 +237,7 @@ fn predict_with(
         let c = remove_scale_error(at.position(), fx.scale_error, fx.scale_origin_um);
         // The angle's aspect distortion is second order (< 1e-4 rad at 3 %); ignored here.
         if i > 0 {
-            sim = Simulator::new(sim.model().clone(), data.fixture.clone(), settings.clone())?;
+            sim.reset();
         }
         let r = follow_path(&mut sim, Pose::new(c.x, c.y, at.theta_rad), &seg)?;
         replay.jams += r.jams;

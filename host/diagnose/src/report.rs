@@ -1,16 +1,13 @@
 //! What a diagnosis reports: the verdict, the Table I of held-out errors before and after,
 //! the fitted parameters with their uncertainty, the residual's structure, the JSON summary
-//! and the before/after residual plots.
+//! (the before/after residual figure is [`super::figure`]).
 
 use super::attribute::Diagnosis;
 use super::candidates::Effect;
 use super::decide::{Ambiguity, Verdict};
 use super::residual::Mse;
 use super::structure::Structure;
-use crate::Error;
-use plotters::prelude::*;
 use serde_json::{Value, json};
-use std::path::Path;
 
 /// Held-out errors before (nominal) and after (extended model).
 pub fn mse_before_after(d: &Diagnosis) -> (Mse, Mse) {
@@ -202,39 +199,4 @@ pub fn json(d: &Diagnosis) -> Value {
         "structure_before": Structure::of(&d.residuals.0),
         "structure_after": Structure::of(&d.residuals.1),
     })
-}
-
-/// Held-out peg position residuals over time, before (top) and after (bottom), as PNG.
-pub fn plot(d: &Diagnosis, path: &Path) -> Result<(), Error> {
-    let err =
-        |e: &dyn std::fmt::Display| Error::Parse { path: path.into(), message: e.to_string() };
-    let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let panels = root.split_evenly((2, 1));
-    for (panel, (title, res)) in panels
-        .iter()
-        .zip([("before (nominal)", &d.residuals.0), ("after (extended)", &d.residuals.1)])
-    {
-        let pts = |a: usize| -> Vec<(f64, f64)> {
-            res.iter().flat_map(|r| r.frames.iter().map(move |f| (f.t_s, f.peg[a]))).collect()
-        };
-        let (x, y) = (pts(0), pts(1));
-        let tmax = x.iter().map(|p| p.0).fold(1.0, f64::max);
-        let lim = x.iter().chain(&y).map(|p| p.1.abs()).fold(1.0, f64::max);
-        let mut ch = ChartBuilder::on(panel)
-            .caption(format!("held-out residual {title}"), ("sans-serif", 18))
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0.0..tmax, -lim..lim)
-            .map_err(|e| err(&e))?;
-        ch.configure_mesh().x_desc("t (s)").y_desc("µm").draw().map_err(|e| err(&e))?;
-        ch.draw_series(x.iter().map(|p| Circle::new(*p, 1, RED.filled())))
-            .map_err(|e| err(&e))?
-            .label("x");
-        ch.draw_series(y.iter().map(|p| Circle::new(*p, 1, BLUE.filled())))
-            .map_err(|e| err(&e))?
-            .label("y");
-    }
-    root.present().map_err(|e| err(&e))
 }

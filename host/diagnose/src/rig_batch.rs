@@ -61,7 +61,11 @@ pub fn write_rig_batch(
             if report.state != TrialState::Done {
                 return Err(Error::invalid(
                     "rig batch",
-                    format!("{id} ended {:?}: {:?}", report.state, report.reason),
+                    format!(
+                        "{id} ended {}: {}",
+                        report.state,
+                        report.reason.as_deref().unwrap_or("no reason recorded")
+                    ),
                 ));
             }
             Ok(report.dir)

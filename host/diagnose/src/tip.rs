@@ -6,10 +6,12 @@
 //! the measured peg), so the selection never depends on the model being fitted.
 
 use super::data::{Measured, TrialData};
+use super::memo::cached;
 use super::predict::{Prediction, probe_at};
 use mesopush_core::geom::Vec2;
 use mesopush_core::stats;
 use mesopush_sim::contact::closest_on_polygon;
+use std::convert::Infallible;
 
 /// Fewest free frames with an imaged tip that estimate a trial's tip registration offset.
 const MIN_REGISTRATION_FRAMES: usize = 3;
@@ -60,7 +62,10 @@ fn tip_zone(data: &TrialData, m: &Measured) -> TipZone {
 ///   comes from the needle's shaft, several µm off (clean simulated rig: 2–4 µm); a needle's
 ///   deflection under load, or a stage's lost motion while pushing, lies along the normal.
 pub fn tip_residuals(data: &TrialData, pred: &Prediction) -> Vec<Option<[f64; 2]>> {
-    let zones: Vec<TipZone> = data.frames.iter().map(|m| tip_zone(data, m)).collect();
+    // The trial's alone: the same at every evaluation, so kept ([`super::memo`]).
+    let Ok(zones) = cached(data, "tip_zones", || {
+        Ok::<_, Infallible>(data.frames.iter().map(|m| tip_zone(data, m)).collect::<Vec<_>>())
+    });
     let raw: Vec<Option<Vec2>> = data
         .frames
         .iter()
@@ -69,7 +74,7 @@ pub fn tip_residuals(data: &TrialData, pred: &Prediction) -> Vec<Option<[f64; 2]
         .collect();
     let free = |a: usize| -> Vec<f64> {
         raw.iter()
-            .zip(&zones)
+            .zip(zones.iter())
             .filter_map(|(d, z)| if *z == TipZone::Free { d.map(|d| d[a]) } else { None })
             .collect()
     };
@@ -78,7 +83,7 @@ pub fn tip_residuals(data: &TrialData, pred: &Prediction) -> Vec<Option<[f64; 2]
         _ => Vec2::zeros(),
     };
     raw.iter()
-        .zip(&zones)
+        .zip(zones.iter())
         .map(|(d, z)| {
             let d = (*d)?;
             let d = match z {

@@ -5,7 +5,28 @@ use super::MlcpProblem;
 
 /// Solves `A x = rhs` in place (`a` is `k × k` row-major and is destroyed, `rhs` becomes `x`).
 /// Returns `false` when a pivot is below `rel_tol` times the largest entry of `A` (singular).
+///
+/// The simulator's step problems are mostly this small (its Newton iterations solve 3 to 7
+/// unknowns, millions of times per diagnosis): each size up to 8 gets a copy compiled for
+/// it, loops unrolled and index checks gone. Every copy is the same source, so it does the
+/// same floating-point operations in the same order: the answers are bit-identical.
 pub(crate) fn lu_solve(a: &mut [f64], k: usize, rhs: &mut [f64], rel_tol: f64) -> bool {
+    match k {
+        1 => lu_solve_sized(a, 1, rhs, rel_tol),
+        2 => lu_solve_sized(a, 2, rhs, rel_tol),
+        3 => lu_solve_sized(a, 3, rhs, rel_tol),
+        4 => lu_solve_sized(a, 4, rhs, rel_tol),
+        5 => lu_solve_sized(a, 5, rhs, rel_tol),
+        6 => lu_solve_sized(a, 6, rhs, rel_tol),
+        7 => lu_solve_sized(a, 7, rhs, rel_tol),
+        8 => lu_solve_sized(a, 8, rhs, rel_tol),
+        _ => lu_solve_sized(a, k, rhs, rel_tol),
+    }
+}
+
+/// [`lu_solve`]'s body, inlined into each of its size cases so `k` is a constant there.
+#[inline(always)]
+fn lu_solve_sized(a: &mut [f64], k: usize, rhs: &mut [f64], rel_tol: f64) -> bool {
     debug_assert!(a.len() >= k * k && rhs.len() >= k);
     let scale = a[..k * k].iter().fold(0.0f64, |m, v| m.max(v.abs()));
     if k == 0 {

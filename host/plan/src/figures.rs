@@ -141,8 +141,9 @@ impl Figure for SweepFigure<'_> {
         DB::ErrorType: 'static,
     {
         area.fill(&WHITE)?;
-        let all = self.curves.iter().flat_map(|c| c.1.iter().map(|p| p.scale));
-        let x1 = all.fold(1.0, f64::max) + 0.1;
+        let all = || self.curves.iter().flat_map(|c| c.1.iter().map(|p| p.scale));
+        let x1 = all().fold(1.0, f64::max) + 0.1;
+        let x0 = (all().fold(1.0, f64::min) - 0.1).max(0.0);
         let mut chart = ChartBuilder::on(area)
             .caption(
                 "Success rate against the uncertainty box (1 = the paper's)",
@@ -151,8 +152,12 @@ impl Figure for SweepFigure<'_> {
             .margin(15)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d(0.0..x1, 0.0..1.05)?;
-        chart.configure_mesh().x_desc("uncertainty scale").y_desc("success rate").draw()?;
+            .build_cartesian_2d(x0..x1, 0.0..1.05)?;
+        chart
+            .configure_mesh()
+            .x_desc("uncertainty box scale (start pose and model ranges; 1 = the paper's)")
+            .y_desc("share of sampled worlds inserted")
+            .draw()?;
         for (i, (name, pts)) in self.curves.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
             let line = pts.iter().map(|p| (p.scale, p.success_rate));
@@ -162,14 +167,20 @@ impl Figure for SweepFigure<'_> {
             let bars = pts
                 .iter()
                 .map(|p| PathElement::new(vec![(p.scale, p.ci_low), (p.scale, p.ci_high)], color));
-            chart.draw_series(bars)?;
+            let drawn = chart.draw_series(bars)?;
+            if i + 1 == self.curves.len() {
+                drawn.label("Wilson 95 % interval (bars)").legend(|(x, y)| {
+                    PathElement::new(vec![(x + 10, y - 6), (x + 10, y + 6)], BLACK)
+                });
+            }
             let dots =
                 pts.iter().map(|p| Circle::new((p.scale, p.success_rate), 4, color.filled()));
             chart.draw_series(dots)?;
         }
         chart
             .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
+            .position(SeriesLabelPosition::LowerLeft)
+            .background_style(WHITE.mix(0.9))
             .border_style(BLACK)
             .draw()?;
         area.present()?;

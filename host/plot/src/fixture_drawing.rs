@@ -1,7 +1,7 @@
 //! A dimensioned drawing of the reconstructed paper fixture (for `docs/fixture.md`): walls,
 //! camera field, goal, Table II's start pose and the dimensions that define the fixture.
 
-use crate::fixture_view::draw_walls_and_field;
+use crate::fixture_view::{FIGURE_PX, draw_walls_and_field, equal_aspect};
 use crate::{DrawResult, Error, Figure, save};
 use mesopush_core::geom::{ConvexPolygon, Pose};
 use mesopush_sim::fixture::{FIELD_UM, NARROW_CHANNEL_UM, PaperFixtureParams, WIDE_CHANNEL_UM};
@@ -16,7 +16,7 @@ pub fn draw_fixture(
     peg_pose: &Pose,
     path: &Path,
 ) -> Result<(), Error> {
-    save(&FixtureDrawing { p, walls, part, peg_pose }, path, (1011, 800))
+    save(&FixtureDrawing { p, walls, part, peg_pose }, path, FIGURE_PX)
 }
 
 struct FixtureDrawing<'a> {
@@ -46,13 +46,18 @@ where
     DB::ErrorType: 'static,
 {
     area.fill(&WHITE)?;
-    let (x0, x1, y0, y1) = (-1500.0, FIELD_UM[0] + 100.0, -100.0, FIELD_UM[1] + 100.0);
-    let mut chart = ChartBuilder::on(area)
-        .caption("Reconstructed paper fixture (µm; origin top-left, y down)", ("sans-serif", 20))
+    let view = (-1500.0, FIELD_UM[0] + 100.0, -100.0, FIELD_UM[1] + 100.0);
+    let (x0, x1, y0, y1) = view;
+    let body = area
+        .titled("Reconstructed paper fixture (µm; origin top-left, y down)", ("sans-serif", 20))?;
+    let (w_px, h_px) = body.dim_in_pixel();
+    let plot_px = (f64::from(w_px.saturating_sub(75)), f64::from(h_px.saturating_sub(55)));
+    let (v0, v1, w0, w1) = equal_aspect(view, plot_px);
+    let mut chart = ChartBuilder::on(&body)
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(55)
-        .build_cartesian_2d(x0..x1, y1..y0)?;
+        .build_cartesian_2d(v0..v1, w1..w0)?;
     chart.configure_mesh().disable_mesh().x_desc("x [µm]").y_desc("y [µm]").draw()?;
     draw_walls_and_field(&mut chart, walls, (x0, x1, y0, y1))?;
     let mut peg: Vec<_> =

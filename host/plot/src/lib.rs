@@ -5,11 +5,13 @@
 //! in `mesopush-plan`, batches in `mesopush-batch`) and draw with these pieces.
 //!
 //! May depend on: `mesopush-core` (geometry) and `mesopush-sim` (fixture dimensions). It only
-//! draws what it is given: it never runs a simulation.
+//! draws what it is given: it never runs a simulation. Text is drawn with the font it embeds
+//! ([`font`]), so figures need no system fonts.
 
 pub mod error;
 pub mod fixture_drawing;
 pub mod fixture_view;
+pub mod font;
 pub mod plan_view;
 pub mod save;
 

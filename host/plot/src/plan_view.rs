@@ -1,7 +1,8 @@
 //! A figure like the paper's Fig. 6: the fixture, peg outlines along the trajectory (start
-//! and end solid, intermediate dotted), and the probe tip positions as triangles.
+//! and end bold, intermediate faint), the goal region and the probe tip positions as
+//! triangles, each named in the legend; equal aspect.
 
-use crate::fixture_view::{VIEW_UM, fixture_chart};
+use crate::fixture_view::{FIGURE_PX, VIEW_UM, fixture_chart};
 use crate::{DrawResult, Error, Figure, save};
 use mesopush_core::geom::{ConvexPolygon, Pose};
 use plotters::coord::Shift;
@@ -29,7 +30,7 @@ pub struct PlanFigure<'a> {
 
 /// Draws the figure to `path`; the backend follows the extension (`.png` or `.svg`).
 pub fn draw_plan(fig: &PlanFigure<'_>, path: &Path) -> Result<(), Error> {
-    save(fig, path, (1011, 800))
+    save(fig, path, FIGURE_PX)
 }
 
 impl Figure for PlanFigure<'_> {
@@ -53,7 +54,10 @@ where
     if let Some(g) = fig.goal {
         let mut pts = clip(g);
         pts.push(pts[0]);
-        chart.draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(1))))?;
+        chart
+            .draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(2))))?
+            .label("goal region (inserted: peg centre inside by the insert depth)")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], GREEN.stroke_width(2)));
     }
     let n = fig.poses.len();
     let stride = (n / fig.max_outlines.max(1)).max(1);
@@ -66,10 +70,28 @@ where
             fig.part.transformed(pose).vertices().iter().map(|v| (v.x, v.y)).collect();
         pts.push(pts[0]);
         let style = if ends { BLUE.stroke_width(2) } else { BLUE.mix(0.35).stroke_width(1) };
-        chart.draw_series(std::iter::once(PathElement::new(pts, style)))?;
+        let drawn = chart.draw_series(std::iter::once(PathElement::new(pts, style)))?;
+        if i == 0 {
+            drawn
+                .label("peg at start and end")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLUE.stroke_width(2)));
+        } else if i == stride && i + 1 != n {
+            drawn.label("peg in between").legend(|(x, y)| {
+                PathElement::new([(x, y), (x + 18, y)], BLUE.mix(0.35).stroke_width(1))
+            });
+        }
     }
     let tips = fig.probe_um.iter().step_by((fig.probe_um.len() / 60).max(1));
-    chart.draw_series(tips.map(|p| TriangleMarker::new((p[0], p[1]), 5, RED.filled())))?;
+    chart
+        .draw_series(tips.map(|p| TriangleMarker::new((p[0], p[1]), 5, RED.filled())))?
+        .label("probe tip (sampled positions)")
+        .legend(|(x, y)| TriangleMarker::new((x + 9, y), 5, RED.filled()));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerLeft)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()?;
     area.present()?;
     Ok(())
 }

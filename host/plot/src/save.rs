@@ -19,6 +19,7 @@ pub trait Figure {
 
 /// Draws `fig` at `size` pixels to `path` (`.png` or `.svg`); errors name the path.
 pub fn save(fig: &impl Figure, path: &Path, size: (u32, u32)) -> Result<(), Error> {
+    crate::font::register().map_err(|e| e.at(path))?;
     let res = match path.extension().and_then(|e| e.to_str()) {
         Some("svg") => fig.draw(&SVGBackend::new(path, size).into_drawing_area()),
         Some("png") => fig.draw(&BitMapBackend::new(path, size).into_drawing_area()),

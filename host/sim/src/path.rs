@@ -205,6 +205,26 @@ mod tests {
         assert_eq!(by_path.samples.len(), waypoints(&plan).len());
     }
 
+    /// `reset` stands in for a new simulator where a replay restarts (diagnosis restarts
+    /// once per stroke): it must leave no trace of the steps before it, bit for bit.
+    #[test]
+    fn a_reset_simulator_replays_bit_for_bit_as_a_new_one() {
+        let plan = Plan::table2();
+        let (start, path) = (plan.peg_start_pose(), waypoints(&plan));
+        let mut model = Model::default();
+        model.effects.speed_friction = Some(crate::effects::SpeedFriction { gain_per_mm_s: 0.5 });
+        let settings = SimSettings::default();
+        let new = || Simulator::new(model.clone(), Fixture::paper(), settings.clone()).unwrap();
+        let fresh = follow_path(&mut new(), start, &path).unwrap();
+        let mut reused = new();
+        let half = &path[..path.len() / 2];
+        follow_path(&mut reused, start, half).unwrap();
+        reused.reset();
+        let again = follow_path(&mut reused, start, &path).unwrap();
+        assert!(fresh.lcp_solves > 100, "the replay pushes: {} solves", fresh.lcp_solves);
+        assert_eq!(format!("{fresh:?}"), format!("{again:?}"));
+    }
+
     #[test]
     fn a_path_starting_inside_the_peg_or_going_back_in_time_is_refused() {
         let plan = Plan::table2();

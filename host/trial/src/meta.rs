@@ -24,6 +24,18 @@ pub enum TrialState {
     Faulted,
 }
 
+impl std::fmt::Display for TrialState {
+    /// The same word trial.json uses (`done`, `aborted`, `faulted`, `incomplete`).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Incomplete => "incomplete",
+            Self::Done => "done",
+            Self::Aborted => "aborted",
+            Self::Faulted => "faulted",
+        })
+    }
+}
+
 /// The trial's verdict.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Outcome {

@@ -176,7 +176,7 @@ pub fn complete_trial(dir: &Path, c: &Completion) -> Result<Completed, Error> {
     let verdict = EventRow {
         t_us: frames.iter().filter_map(|f| f.t_capture_us).max().unwrap_or(0),
         kind: "verdict".into(),
-        detail: format!("inserted={}; final_pose={final_pose:?}", opt_bool(inserted)),
+        detail: verdict_detail(inserted, final_pose),
     };
     if let Some(r) = apparent_scale {
         let detail = mesopush_vision::scale_lock::describe(r);
@@ -206,8 +206,15 @@ pub fn complete_trial(dir: &Path, c: &Completion) -> Result<Completed, Error> {
     })
 }
 
-fn opt_bool(b: Option<bool>) -> String {
-    b.map_or("unknown".into(), |b| b.to_string())
+/// The `verdict` row's detail in events.csv, in words: `inserted; final tracked pose x … µm,
+/// y … µm, θ …°`, `NOT inserted; …` or `not judged: no tracked pose of the peg at rest`.
+pub fn verdict_detail(inserted: Option<bool>, final_pose: Option<Pose>) -> String {
+    match (inserted, final_pose) {
+        (Some(i), Some(p)) => {
+            format!("{}; final tracked pose {p}", if i { "inserted" } else { "NOT inserted" })
+        }
+        _ => "not judged: no tracked pose of the peg at rest".into(),
+    }
 }
 
 /// Reads a CSV file of `T` rows.

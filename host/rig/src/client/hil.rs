@@ -116,52 +116,51 @@ struct TruthRow {
     y_um: f64,
 }
 
+/// Where [`run_with`] is, for a progress display (a run is silent for up to a minute and
+/// more otherwise).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum RunPhase {
+    /// Connecting to the executor.
+    Connecting,
+    /// Arming and starting the flashed plan (the executor checks the probe is at its start).
+    Arming,
+    /// The trial runs: executor time since its start and the plan's nominal duration, s.
+    Running {
+        /// Executor time since the trial's start, s.
+        elapsed_s: f64,
+        /// The plan's travel over its speed, s.
+        expected_s: f64,
+    },
+    /// The trial ended; waiting for the executor's recording (at most [`RECORDING_TIMEOUT`]).
+    WaitingForRecording,
+    /// Tracking the recorded frames and writing the trial log.
+    Completing,
+}
+
 /// Arms, starts and follows the trial, then completes its recording.
 pub fn run(o: &RunOptions) -> Result<RunReport, Error> {
+    run_with(o, &mut |_| {})
+}
+
+/// [`run`], telling `progress` each phase (and, while the trial runs, each position report).
+pub fn run_with(o: &RunOptions, progress: &mut dyn FnMut(RunPhase)) -> Result<RunReport, Error> {
     let wall = Instant::now();
+    progress(RunPhase::Connecting);
     let mut port = HostPort::open(&o.addr)?;
     let start = plan_start(&o.plan, o.fixture_origin_um)?;
     let mut s = HostSession::new(&o.plan, SessionGoal::Run, start, fresh_session_id())?;
-    let (mut telemetry, mut started): (Vec<ProbeTelemetry>, Option<TrialEvent>) = (vec![], None);
-    let plan_s = o.plan.travel_um() / o.plan.speed_um_s;
-    let timeout = Duration::from_secs_f64(plan_s + 60.0);
-    let end = drive(&mut s, &mut port, &o.addr, timeout, &mut |_, m| match m {
-        ExecToHost::Telemetry(t) => telemetry.push(*t),
-        ExecToHost::Trial(t) if t.kind == TrialEventKind::Started => started = Some(*t),
-        _ => {}
-    })?;
+    progress(RunPhase::Arming);
+    let (end, telemetry, started) = follow(&mut s, &mut port, o, progress)?;
     drop(port); // hang up: the executor's line waits for the next host
-    let (state, reason) = match end {
-        SessionEnd::Trial(TrialEventKind::Done) => (TrialState::Done, None),
-        SessionEnd::Trial(TrialEventKind::Aborted) => (TrialState::Aborted, None),
-        SessionEnd::Trial(TrialEventKind::Faulted(f)) => (TrialState::Faulted, Some(f.to_string())),
-        SessionEnd::Refused(r) => return Err(Error::invalid("run", r)),
-        SessionEnd::Rejected(r @ CommandRejectReason::StartMismatch { .. }) => {
-            let p = o.plan.probe_start();
-            let hint = format!(
-                "{r}: the plan starts at fixture ({:.1}, {:.1}) µm; `mesopush rig goto --plan \
-                 PLAN --port {}` moves the probe there",
-                p.x, p.y, o.addr
-            );
-            return Err(Error::invalid("run", hint));
-        }
-        SessionEnd::Rejected(r @ CommandRejectReason::OutsideWorkspace { .. }) => {
-            let p = o.plan.probe_start();
-            let hint = format!(
-                "the plan's start, fixture ({:.1}, {:.1}) µm, is outside the rig's workspace: \
-                 {r}; fix the plan's probe_start_um or the rig's fixture offset",
-                p.x, p.y
-            );
-            return Err(Error::invalid("run", hint));
-        }
-        SessionEnd::Rejected(r) => return Err(Error::invalid("run", r.to_string())),
-        other => return Err(Error::invalid("run", format!("unexpected end {other:?}"))),
-    };
+    let (state, reason) = end_state(end, o)?;
     let Some(t0) = started else {
         return Err(Error::invalid("run", "the trial ended but its start was never heard"));
     };
     let name = format!("trial-{:08x}-{}", t0.plan_id, t0.exec_time_us);
+    progress(RunPhase::WaitingForRecording);
     let recorded = wait_for_recording(&o.record_dir.join(&name))?;
+    progress(RunPhase::Completing);
     let dir = match &o.out {
         Some(out) => copy_dir(&recorded, out)?,
         None => recorded,
@@ -193,6 +192,65 @@ pub fn run(o: &RunOptions) -> Result<RunReport, Error> {
         telemetry: telemetry.len(),
         truth,
         wall_time_s: wall.elapsed().as_secs_f64(),
+    })
+}
+
+/// Arms, starts and follows the trial to its end: how it ended, the position reports and the
+/// start event.
+fn follow(
+    s: &mut HostSession,
+    port: &mut HostPort,
+    o: &RunOptions,
+    progress: &mut dyn FnMut(RunPhase),
+) -> Result<(SessionEnd, Vec<ProbeTelemetry>, Option<TrialEvent>), Error> {
+    let (mut telemetry, mut started): (Vec<ProbeTelemetry>, Option<TrialEvent>) = (vec![], None);
+    let expected_s = o.plan.travel_um() / o.plan.speed_um_s;
+    let timeout = Duration::from_secs_f64(expected_s + 60.0);
+    let end = drive(s, port, &o.addr, timeout, &mut |_, m| match m {
+        ExecToHost::Telemetry(t) => {
+            telemetry.push(*t);
+            if let Some(t0) = started {
+                let elapsed_s = t.exec_time_us.saturating_sub(t0.exec_time_us) as f64 * 1e-6;
+                progress(RunPhase::Running { elapsed_s, expected_s });
+            }
+        }
+        ExecToHost::Trial(t) if t.kind == TrialEventKind::Started => {
+            started = Some(*t);
+            progress(RunPhase::Running { elapsed_s: 0.0, expected_s });
+        }
+        _ => {}
+    })?;
+    Ok((end, telemetry, started))
+}
+
+/// The trial's end state and reason (in words) from how the session ended; a refusal is an
+/// error naming what to do.
+fn end_state(end: SessionEnd, o: &RunOptions) -> Result<(TrialState, Option<String>), Error> {
+    Ok(match end {
+        SessionEnd::Trial(TrialEventKind::Done) => (TrialState::Done, None),
+        SessionEnd::Trial(TrialEventKind::Aborted) => (TrialState::Aborted, None),
+        SessionEnd::Trial(TrialEventKind::Faulted(f)) => (TrialState::Faulted, Some(f.to_string())),
+        SessionEnd::Refused(r) => return Err(Error::invalid("run", r)),
+        SessionEnd::Rejected(r @ CommandRejectReason::StartMismatch { .. }) => {
+            let p = o.plan.probe_start();
+            let hint = format!(
+                "{r}: the plan starts at fixture ({:.1}, {:.1}) µm; `mesopush rig goto --plan \
+                 PLAN --port {}` moves the probe there",
+                p.x, p.y, o.addr
+            );
+            return Err(Error::invalid("run", hint));
+        }
+        SessionEnd::Rejected(r @ CommandRejectReason::OutsideWorkspace { .. }) => {
+            let p = o.plan.probe_start();
+            let hint = format!(
+                "the plan's start, fixture ({:.1}, {:.1}) µm, is outside the rig's workspace: \
+                 {r}; fix the plan's probe_start_um or the rig's fixture offset",
+                p.x, p.y
+            );
+            return Err(Error::invalid("run", hint));
+        }
+        SessionEnd::Rejected(r) => return Err(Error::invalid("run", r.to_string())),
+        other => return Err(Error::invalid("run", format!("unexpected end {other:?}"))),
     })
 }
 

@@ -8,7 +8,7 @@
 
 use crate::Error;
 use mesopush_core::geom::{ConvexPolygon, Pose};
-use mesopush_plot::fixture_view::fixture_chart;
+use mesopush_plot::fixture_view::{FIGURE_PX, fixture_chart};
 use mesopush_plot::{DrawResult, Figure, save};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -31,7 +31,7 @@ pub struct TrialFigure<'a> {
 
 /// Draws to `path` (`.png` or `.svg`).
 pub fn draw_trial(fig: &TrialFigure<'_>, path: &Path) -> Result<(), Error> {
-    Ok(save(fig, path, (1011, 800))?)
+    Ok(save(fig, path, FIGURE_PX)?)
 }
 
 impl Figure for TrialFigure<'_> {
@@ -56,9 +56,10 @@ where
 {
     let mut chart = fixture_chart(area, fig.title, fig.walls)?;
     let orange = RGBColor(230, 120, 20);
-    for (poses, color, label) in
-        [(fig.simulated, orange, "simulated (host model)"), (fig.tracked, BLUE, "tracked")]
-    {
+    for (poses, color, label) in [
+        (fig.simulated, orange, "simulated by the host model: outlines, centre path"),
+        (fig.tracked, BLUE, "tracked by the camera: outlines, centre path"),
+    ] {
         let n = poses.len();
         let stride = (n / 12).max(1);
         for (i, p) in poses.iter().enumerate() {
@@ -76,7 +77,12 @@ where
             .label(label)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerLeft)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()?;
     area.present()?;
     Ok(())
 }

@@ -7,6 +7,7 @@ use super::faults::{FaultClasses, FaultCount};
 use super::recorder::{RecorderResult, Tracked};
 use super::spec::TrialReport;
 use crate::Error;
+use crate::client::complete::verdict_detail;
 use crate::client::session::SessionEnd;
 use crate::client::tracking::wrap_angle;
 use crate::plant::truth::TruthSample;
@@ -87,8 +88,8 @@ pub(crate) fn finish(
     let jams = write_jams(&mut writer, truth, t0)?;
     let max_deflection_um = truth.iter().map(|s| s.deflection_um).fold(0.0, f64::max);
     let verdict = format!(
-        "inserted={}; final_pose={final_pose:?}; track_error_um_max={err_um:.2} over {compared} frames",
-        inserted.map_or("unknown".into(), |b| b.to_string())
+        "{}; tracking error against the truth ≤ {err_um:.2} µm over {compared} frames",
+        verdict_detail(inserted, final_pose)
     );
     let t_end = rec.end.map_or(0, |(t, _)| t as i64 - rec.t0_us.unwrap_or(0) as i64);
     writer.event(&EventRow { t_us: t_end, kind: "verdict".into(), detail: verdict })?;

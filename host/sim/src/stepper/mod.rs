@@ -15,6 +15,7 @@ use super::settings::SimSettings;
 use crate::Error;
 use mesopush_core::geom::{Pose, Vec2};
 use mesopush_lcp::{LcpSettings, LcpSolver};
+use nalgebra::Rotation2;
 
 /// The simulated world's state.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -136,8 +137,12 @@ impl Simulator {
         let support_forces = model.validate()?;
         let cones = SupportCones::new(settings.n_directions);
         let char_len_um = model.part.char_length_um();
-        let capacity = Layout { n_contacts: 16, n_directions: settings.n_directions }.n();
         let pusher = model.pusher();
+        // Sized for the pusher's discs and two walls; the buffers grow once if a step needs
+        // more (sizing for the largest step up front cost a replay's setup a quarter MB of
+        // zeroed pages, and a diagnosis sets up thousands).
+        let n_contacts = pusher.discs.len() + 2;
+        let capacity = Layout { n_contacts, n_directions: settings.n_directions }.n();
         let pusher_reach_um = pusher
             .discs
             .iter()
@@ -156,12 +161,27 @@ impl Simulator {
             char_len_um,
             problem: StepProblem::default(),
             solver: LcpSolver::new(capacity, LcpSettings::default()),
-            contacts: Vec::with_capacity(16),
-            scratch: Vec::with_capacity(16),
+            contacts: Vec::with_capacity(n_contacts),
+            scratch: Vec::with_capacity(n_contacts),
             warm: [WarmStart::new(capacity), WarmStart::new(capacity)],
             probe_speed_um_s: 0.0,
             support_slip_um_s: [0.0; N_SUPPORTS],
         })
+    }
+
+    /// Forgets everything a replay carries from step to step (Newton's carried motion, the
+    /// warm-start active sets, the supports' sliding speeds, the probe speed): the simulator
+    /// then steps exactly as a new one with the same model, fixture and settings would, bit
+    /// for bit, without validating and sizing everything again.
+    pub fn reset(&mut self) {
+        self.newton_carry = None;
+        self.z.clear();
+        for w in &mut self.warm {
+            w.active.clear();
+            w.kinds.clear();
+        }
+        self.probe_speed_um_s = 0.0;
+        self.support_slip_um_s = [0.0; N_SUPPORTS];
     }
 
     /// Tells the simulator how fast the probe moves now, µm/s (used only by the
@@ -276,15 +296,19 @@ impl Simulator {
 
     /// Largest displacement of a peg vertex between two poses, µm.
     fn max_vertex_motion_um(&self, a: &Pose, b: &Pose) -> f64 {
+        // `Pose::transform_point`'s arithmetic, each rotation built once instead of per vertex.
+        let (ra, rb) = (Rotation2::new(a.theta_rad), Rotation2::new(b.theta_rad));
+        let (pa, pb) = (a.position(), b.position());
         let poly = self.model.part.polygon();
-        poly.vertices()
-            .iter()
-            .map(|v| (a.transform_point(v) - b.transform_point(v)).norm())
-            .fold(0.0, f64::max)
+        poly.vertices().iter().map(|v| ((ra * v + pa) - (rb * v + pb)).norm()).fold(0.0, f64::max)
     }
 
     /// Deepest penetration of the peg (at `pose`) into any wall, µm (0 when clear).
     pub fn wall_penetration_um(&mut self, pose: &Pose) -> f64 {
+        if self.fixture.walls.is_empty() {
+            // An open plate (what diagnosis replays on): no wall to place the peg against.
+            return 0.0;
+        }
         let peg = self.model.part.polygon().transformed(pose);
         self.scratch.clear();
         wall_contacts(&peg, &self.fixture.walls, 0.0, &mut self.scratch);

@@ -6,6 +6,7 @@ use crate::Error;
 use crate::contact::{Contact, ContactKind, probe_contact, wall_contacts};
 use crate::formulate::{N_SUPPORTS, PusherMotion};
 use mesopush_core::geom::{ConvexPolygon, Vec2};
+use nalgebra::Rotation2;
 
 impl Simulator {
     /// One step without splitting: the pusher moves by `delta.0` and turns by `delta.1`.
@@ -64,7 +65,9 @@ impl Simulator {
         self.scratch.clear();
         wall_contacts(peg, &self.fixture.walls, margin, &mut self.scratch);
         self.contacts.extend(self.scratch.iter().map(|c| (*c, self.model.mu_wall)));
-        let supports = self.model.support.points().map(|p| state.peg.rotate(&p));
+        // `Pose::rotate`'s arithmetic, the rotation built once for the three supports.
+        let rot = Rotation2::new(state.peg.theta_rad);
+        let supports = self.model.support.points().map(|p| rot * p);
         let travel_um = self.pusher_travel_um(motion.d_um, motion.d_theta_rad);
         let lay = self.solve_aligned(state, &supports, motion, travel_um, &mut info)?;
         let z = &self.z;

@@ -148,7 +148,7 @@ fn write_outputs(d: &Diagnosis, out: &Path) -> Result<()> {
     d.nominal.model.save(&out.join("nominal_model.toml"))?;
     std::fs::write(out.join("report.md"), report::text(d))?;
     std::fs::write(out.join("summary.json"), serde_json::to_string_pretty(&report::json(d))?)?;
-    report::plot(d, &out.join("residuals.png"))?;
+    mesopush_diagnose::figure::plot(d, &out.join("residuals.png"))?;
     Ok(())
 }
 

@@ -7,7 +7,7 @@
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use mesopush_core::geom::Vec2;
-use mesopush_protocol::host::{ExecStatus, MotionEventKind, StagePoint};
+use mesopush_protocol::host::{ExecState, ExecStatus, MotionEventKind, StagePoint};
 use mesopush_rig::WorldFile;
 use mesopush_rig::client::rig::{self, Registration, stage_um};
 use mesopush_sim::Plan;
@@ -87,8 +87,10 @@ pub(crate) fn run(args: &RigArgs) -> anyhow::Result<()> {
         }
         RigCommand::Home(m) => {
             let reg = registration(&m.common)?;
-            let end = rig::home(&m.common.port, timeout(m.timeout_s)?)
-                .with_context(|| format!("homing {}", m.common.port))?;
+            let bar = spinner("homing: moving the probe to the executor's park position");
+            let end = rig::home(&m.common.port, timeout(m.timeout_s)?);
+            bar.finish_and_clear();
+            let end = end.with_context(|| format!("homing {}", m.common.port))?;
             motion_end(end, &reg, m.common.json)
         }
         RigCommand::Goto(g) => goto(g),
@@ -107,9 +109,25 @@ fn goto(g: &GotoArgs) -> anyhow::Result<()> {
         }
         (None, None) => anyhow::bail!("give a target X,Y or --plan PLAN"),
     };
-    let end = rig::goto(&c.port, target, timeout(g.moving.timeout_s)?)
-        .with_context(|| format!("moving the probe to stage {target} on {}", c.port))?;
+    let bar = spinner(&format!("moving the probe to stage {target}"));
+    let end = rig::goto(&c.port, target, timeout(g.moving.timeout_s)?);
+    bar.finish_and_clear();
+    let end = end.with_context(|| format!("moving the probe to stage {target} on {}", c.port))?;
     motion_end(end, &reg, c.json)
+}
+
+/// A spinner on stderr while a move runs (hidden when stderr is no terminal; stdout stays
+/// clean for `--json`).
+fn spinner(what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new_spinner();
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+    {
+        bar.set_style(style);
+    }
+    bar.set_message(what.to_string());
+    bar.enable_steady_tick(Duration::from_millis(200));
+    bar
 }
 
 fn registration(c: &Common) -> anyhow::Result<Registration> {
@@ -143,10 +161,26 @@ fn both(p: StagePoint, reg: &Registration) -> String {
     format!("fixture ({:.1}, {:.1}) µm = stage {p}", f.x, f.y)
 }
 
+/// The executor's state as a JSON key (snake case, as trial.json's states).
+fn state_key(s: ExecState) -> &'static str {
+    match s {
+        ExecState::Idle => "idle",
+        ExecState::Flashing => "flashing",
+        ExecState::PlanFlashed => "plan_flashed",
+        ExecState::Armed => "armed",
+        ExecState::Running => "running",
+        ExecState::Done => "done",
+        ExecState::Aborted => "aborted",
+        ExecState::Faulted => "faulted",
+        ExecState::Moving => "moving",
+    }
+}
+
 fn print_status(s: &ExecStatus, reg: &Registration, json: bool) -> anyhow::Result<()> {
     if json {
         let v = serde_json::json!({
-            "state": format!("{:?}", s.state),
+            "state": state_key(s.state),
+            "state_text": s.state.to_string(),
             "plan_id": s.plan_id,
             "step_count": s.step_count,
             "step_index": s.step_index,

@@ -7,10 +7,11 @@
 
 use anyhow::Context;
 use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
 use mesopush_core::geom::Vec2;
 use mesopush_executor::ExecutorConfig;
 use mesopush_rig::WorldFile;
-use mesopush_rig::client::hil::{self, RunOptions, RunReport};
+use mesopush_rig::client::hil::{self, RunOptions, RunPhase, RunReport};
 use mesopush_sim::Plan;
 use mesopush_trial::{FrameRetention, TrialState, retention};
 use std::path::{Path, PathBuf};
@@ -91,7 +92,10 @@ pub(crate) fn run(args: &RunArgs) -> anyhow::Result<()> {
         truth: args.truth.clone(),
         sim_world: args.sim_world.clone(),
     };
-    let report = hil::run(&opts).with_context(|| format!("running the trial on {}", args.port))?;
+    let bar = phase_bar();
+    let report = hil::run_with(&opts, &mut |p| show_phase(&bar, p));
+    bar.finish_and_clear();
+    let report = report.with_context(|| format!("running the trial on {}", args.port))?;
     let t = &report.trial;
     let success = t.state == TrialState::Done && t.inserted == Some(true);
     let kept = retention::apply(&t.trial_dir, args.frames, success)?;
@@ -107,6 +111,31 @@ pub(crate) fn run(args: &RunArgs) -> anyhow::Result<()> {
         );
     }
     Ok(crate::verdict::trial_verdict(report.trial.state, report.trial.inserted)?)
+}
+
+/// A spinner on stderr (so `--json` keeps stdout clean; hidden when stderr is no terminal)
+/// saying what the run waits for: up to a minute and more would otherwise pass in silence.
+fn phase_bar() -> ProgressBar {
+    let bar = ProgressBar::new_spinner();
+    if let Ok(style) = ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}") {
+        bar.set_style(style);
+    }
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    bar
+}
+
+fn show_phase(bar: &ProgressBar, phase: RunPhase) {
+    let msg = match phase {
+        RunPhase::Connecting => "connecting to the executor".to_string(),
+        RunPhase::Arming => "arming the flashed plan (probe at its start?) and starting".into(),
+        RunPhase::Running { elapsed_s, expected_s } => {
+            format!("running the trial: {elapsed_s:.1} s of ≈ {expected_s:.1} s")
+        }
+        RunPhase::WaitingForRecording => "trial ended; waiting for the executor's recording".into(),
+        RunPhase::Completing => "tracking the frames and writing the trial log".into(),
+        _ => return,
+    };
+    bar.set_message(msg);
 }
 
 fn print_summary(r: &RunReport) {

@@ -44,9 +44,10 @@ pub(crate) struct TrackArgs {
     /// Peg size L,W in µm (a rectangle; default 1615,985).
     #[arg(long, value_name = "L,W", default_value = "1615,985")]
     peg_um: String,
-    /// Orientation the first frame is taken to be near, rad (the ellipse gives θ modulo π).
-    #[arg(long, default_value_t = 0.0, value_parser = crate::ranges::real(Allowed::closed(-10.0, 10.0, "rad")))]
-    theta0_rad: f64,
+    /// Orientation the first frame is taken to be near, degrees (as `plan --start`; the
+    /// ellipse gives θ modulo 180°, so this picks the branch).
+    #[arg(long, default_value_t = 0.0, value_parser = crate::ranges::real(Allowed::closed(-360.0, 360.0, "°")))]
+    theta0_deg: f64,
     /// Also write each frame with the detected outline and tip drawn on it to this folder.
     #[arg(long)]
     overlay: Option<PathBuf>,
@@ -93,7 +94,7 @@ fn settings(args: &TrackArgs, width: u32, height: u32) -> anyhow::Result<TrackSe
         calibration,
         threshold,
         peg,
-        theta_hint_rad: args.theta0_rad,
+        theta_hint_rad: args.theta0_deg.to_radians(),
         ..Default::default()
     })
 }

@@ -1,8 +1,8 @@
 //! Value parsers for the numeric command-line options: every number is checked as clap
 //! parses it, so a NaN, an infinity, a zero count or a value out of range is refused before
 //! anything runs — by clap, with exit status 2 and a message naming the option, the value
-//! and the allowed range (`invalid value 'NaN' for '--theta0-rad <THETA0_RAD>': allowed:
-//! [-10, 10] rad`). The ranges are those of [`mesopush_core::check`], the loaders' checks.
+//! and the allowed range (`invalid value 'NaN' for '--theta0-deg <THETA0_DEG>': allowed:
+//! [-360, 360] °`). The ranges are those of [`mesopush_core::check`], the loaders' checks.
 
 use mesopush_core::check::Allowed;
 

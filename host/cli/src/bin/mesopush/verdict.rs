@@ -21,13 +21,12 @@ pub(crate) fn print_head(
         None => "not judged (no tracked pose)",
     };
     let seed = seed.map(|s| format!(" (seed {s})")).unwrap_or_default();
-    println!("trial {state:?}{seed}: {verdict}");
+    println!("trial {state}{seed}: {verdict}");
     if let Some(reason) = reason {
         println!("  reason: {reason}");
     }
     if let Some(p) = final_pose {
-        let deg = p.theta_rad.to_degrees();
-        println!("  final tracked pose: x {:.1} µm, y {:.1} µm, θ {deg:.2}°", p.x_um, p.y_um);
+        println!("  final tracked pose: {p}");
     }
 }
 
@@ -54,6 +53,6 @@ pub(crate) fn trial_verdict(state: TrialState, inserted: Option<bool>) -> Result
         (TrialState::Done, None) => {
             Err(Negative("not judged: no tracked pose of the peg at rest".into()))
         }
-        (state, _) => Err(Negative(format!("the trial ended {state:?}, not done"))),
+        (state, _) => Err(Negative(format!("the trial did not run to its end: {state}"))),
     }
 }
