@@ -169,7 +169,11 @@ fn demo_realtime_runs_to_the_end_with_every_frame_recorded() {
     assert_eq!(v["segments_applied"], v["segments_expected"], "seed 3: {v}");
     let frames = v["frames"].as_u64().unwrap();
     assert!(frames >= 50, "seed 3: 2 s at 30 Hz: {frames} frames");
+    // Every recorded frame has its image. A frame lost on the way (its stamp or image not
+    // through in time, on a loaded machine) is not a recorded frame: it is counted in
+    // `records_lost` instead. (This asserted images + lost = frames, which held only when
+    // nothing was lost: at load 9, 66 frames, 66 images and 5 lost failed it.)
     let pngs = std::fs::read_dir(out.join("frames")).unwrap().count() as u64;
     let lost = v["records_lost"].as_u64().unwrap();
-    assert_eq!(pngs + lost, frames, "seed 3: every frame recorded with its image or counted lost");
+    assert_eq!(pngs, frames, "seed 3: every recorded frame has its image ({lost} lost)");
 }
