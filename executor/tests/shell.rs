@@ -85,10 +85,10 @@ impl Host {
         let mut buf = [0u8; 512];
         let n = read_some(port, &mut buf);
         for &b in &buf[..n] {
-            if let Some(Ok(frame)) = self.reader.push_byte(b) {
-                if let Some(msg) = self.link.on_bytes(now, frame) {
-                    self.got.push(msg);
-                }
+            if let Some(Ok(frame)) = self.reader.push_byte(b)
+                && let Some(msg) = self.link.on_bytes(now, frame)
+            {
+                self.got.push(msg);
             }
         }
         let _ = self.link.poll(now);

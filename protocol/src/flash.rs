@@ -86,7 +86,7 @@ impl FlashHeader {
         let image_len_bytes = u32::try_from(image.len()).map_err(|_| {
             FlashRejectReason::TooLarge { image_len_bytes: u32::MAX, capacity_bytes: u32::MAX }
         })?;
-        if image.len() % PLAN_STEP_LEN_BYTES != 0 {
+        if !image.len().is_multiple_of(PLAN_STEP_LEN_BYTES) {
             return Err(FlashRejectReason::PartialStep { image_len_bytes });
         }
         Ok(Self {

@@ -104,10 +104,10 @@ impl<S: PlanStore, const CAP: usize, const LA: usize> Executor<S, CAP, LA> {
             let (x, y) = lerp_nm(from, to, t - prev.ctrl_time_us, span);
             return (PositionSource::Interpolated, (x as i32, y as i32));
         }
-        if t > last.ctrl_time_us {
-            if let Some((x, y)) = self.stream.as_ref().and_then(|s| s.commanded_at(t)) {
-                return (PositionSource::Scheduled, (x as i32, y as i32));
-            }
+        if t > last.ctrl_time_us
+            && let Some((x, y)) = self.stream.as_ref().and_then(|s| s.commanded_at(t))
+        {
+            return (PositionSource::Scheduled, (x as i32, y as i32));
         }
         latest
     }

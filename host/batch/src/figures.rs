@@ -9,6 +9,7 @@ use crate::Error;
 use mesopush_core::geom::ConvexPolygon;
 use mesopush_plot::DrawResult;
 use mesopush_plot::fixture_view::{FIGURE_PX, VIEW_UM, fixture_chart};
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -66,22 +67,18 @@ pub fn success_over_time(finals: &[&AttemptRecord], path: &Path) -> Result<(), E
             .draw_series(LineSeries::new(rate, BLUE.stroke_width(2)))?
             .label("running success rate")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
-        for v in TrialVerdict::ALL {
-            let y = if v == TrialVerdict::Inserted { 1.0 } else { 0.0 };
-            let c = colour(v);
-            let marks: Vec<_> = finals
-                .iter()
-                .filter(|a| a.result.verdict == v)
-                .map(|a| Circle::new((a.index as f64, y), 2, c.filled()))
-                .collect();
-            if marks.is_empty() {
-                continue;
-            }
-            chart
-                .draw_series(marks)?
-                .label(format!("trial {} (marked at {y:.0})", v.as_str()))
-                .legend(move |(x, y)| Circle::new((x + 8, y), 3, c.filled()));
-        }
+        verdict_dots(
+            &mut chart,
+            finals,
+            |a| {
+                let y = if a.result.verdict == TrialVerdict::Inserted { 1.0 } else { 0.0 };
+                (a.index as f64, y)
+            },
+            |v| {
+                let y = if v == TrialVerdict::Inserted { 1 } else { 0 };
+                format!("trial {} (marked at {y})", v.as_str())
+            },
+        )?;
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
@@ -172,21 +169,12 @@ pub fn timing(finals: &[&AttemptRecord], runner: &str, path: &Path) -> Result<()
             .y_label_area_size(55)
             .build_cartesian_2d(0.0..n_max, 0.0..t_max * 1.3)?;
         chart.configure_mesh().x_desc("trial index").y_desc("wall time (ms)").draw()?;
-        for v in TrialVerdict::ALL {
-            let c = colour(v);
-            let pts: Vec<_> = finals
-                .iter()
-                .filter(|a| a.result.verdict == v)
-                .map(|a| Circle::new((a.index as f64, a.wall_time_s * 1e3), 2, c.filled()))
-                .collect();
-            if pts.is_empty() {
-                continue;
-            }
-            chart
-                .draw_series(pts)?
-                .label(format!("trial {}", v.as_str()))
-                .legend(move |(x, y)| Circle::new((x + 8, y), 3, c.filled()));
-        }
+        verdict_dots(
+            &mut chart,
+            finals,
+            |a| (a.index as f64, a.wall_time_s * 1e3),
+            |v| format!("trial {}", v.as_str()),
+        )?;
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
@@ -197,4 +185,30 @@ pub fn timing(finals: &[&AttemptRecord], runner: &str, path: &Path) -> Result<()
         Ok(())
     };
     draw().map_err(fail(path))
+}
+
+/// One series of dots per verdict (absent verdicts skipped), each in the verdict's colour and
+/// named in the legend: `at` places a trial, `label` names a verdict.
+fn verdict_dots(
+    chart: &mut ChartContext<'_, BitMapBackend<'_>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    finals: &[&AttemptRecord],
+    at: impl Fn(&AttemptRecord) -> (f64, f64),
+    label: impl Fn(TrialVerdict) -> String,
+) -> DrawResult {
+    for v in TrialVerdict::ALL {
+        let c = colour(v);
+        let dots: Vec<_> = finals
+            .iter()
+            .filter(|a| a.result.verdict == v)
+            .map(|a| Circle::new(at(a), 2, c.filled()))
+            .collect();
+        if dots.is_empty() {
+            continue;
+        }
+        chart
+            .draw_series(dots)?
+            .label(label(v))
+            .legend(move |(x, y)| Circle::new((x + 8, y), 3, c.filled()));
+    }
+    Ok(())
 }

@@ -107,13 +107,13 @@ pub fn set_aside(
             if !dir.exists() {
                 continue;
             }
-            if let Some(target) = k.last.get(&(index, attempt)).map(|t| out.join(t)) {
-                if !target.exists() {
-                    // journalled, then killed before the rename: finish it
-                    rename_synced(&dir, &target)?;
-                    n += 1;
-                    continue;
-                }
+            if let Some(target) = k.last.get(&(index, attempt)).map(|t| out.join(t))
+                && !target.exists()
+            {
+                // journalled, then killed before the rename: finish it
+                rename_synced(&dir, &target)?;
+                n += 1;
+                continue;
             }
             let found = check::state_of(&dir);
             let to = free_name(&dir);

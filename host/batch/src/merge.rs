@@ -182,12 +182,12 @@ fn gather(dirs: &[PathBuf], out: &Path) -> Result<Gathered, Error> {
         let rel = relative(out, dir)?;
         g.inputs.push(rel.to_string_lossy().into_owned());
         for (index, r) in rebase(&b, &rel) {
-            if let Record::Trial(a) = &r {
-                if let Some(prev) = g.owner.insert(index, dir.clone()) {
-                    let (p, d) = (prev.display(), dir.display());
-                    let msg = format!("{} is finished in both {p} and {d}", a.trial_id);
-                    return Err(Error::invalid("merge", msg));
-                }
+            if let Record::Trial(a) = &r
+                && let Some(prev) = g.owner.insert(index, dir.clone())
+            {
+                let (p, d) = (prev.display(), dir.display());
+                let msg = format!("{} is finished in both {p} and {d}", a.trial_id);
+                return Err(Error::invalid("merge", msg));
             }
             g.by_index.entry(index).or_default().push(r);
         }

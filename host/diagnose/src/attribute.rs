@@ -307,10 +307,11 @@ fn sigmas(f: &Fit, train: &[TrialData], s: &SimSettings, noise: &Noise) -> Vec<f
     let mut out = vec![f64::INFINITY; n];
     for (k, &i) in live.iter().enumerate() {
         let e: Vec<f64> = (0..m).map(|q| if q == k { 1.0 } else { 0.0 }).collect();
-        if let Some(x) = mesopush_ident::optim::lm::solve(jtj.clone(), e) {
-            if x[k] > 0.0 && x[k].is_finite() {
-                out[i] = (x[k] * red).sqrt();
-            }
+        if let Some(x) = mesopush_ident::optim::lm::solve(jtj.clone(), e)
+            && x[k] > 0.0
+            && x[k].is_finite()
+        {
+            out[i] = (x[k] * red).sqrt();
         }
     }
     out

@@ -142,7 +142,7 @@ fn fits_another_generation(
     // runs before the next round's first generation: reserve both. The confirmation runs
     // once, at the very end.
     let fine_s = |replays: f64| gen_s * 2.0 * replays / per_gen;
-    let round_end = g % settings.generations.max(1) == 0;
+    let round_end = g.is_multiple_of(settings.generations.max(1));
     let next = gen_s + fine_s(val * if round_end { 2.0 } else { 1.0 } + conf);
     elapsed_s + 1.2 * next < limit_s
 }

@@ -139,7 +139,7 @@ pub struct StepProblem {
 impl StepProblem {
     /// Fills the buffers for `inp`; reuses their capacity.
     pub fn build(&mut self, inp: &StepInputs<'_>) -> Layout {
-        debug_assert!(inp.directions.len() % N_SUPPORTS == 0, "one set per support");
+        debug_assert!(inp.directions.len().is_multiple_of(N_SUPPORTS), "one set per support");
         let n_directions = inp.directions.len() / N_SUPPORTS;
         let lay = Layout { n_contacts: inp.contacts.len(), n_directions };
         let n = lay.n();

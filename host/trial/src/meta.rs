@@ -225,13 +225,13 @@ impl TrialMeta {
                 format!("registration_tol_um = {r}; must be a finite number ≥ 0 (µm)"),
             ));
         }
-        if let Some(p) = self.frame_period_us {
-            if !(p.is_finite() && p > 0.0) {
-                return Err(Error::invalid(
-                    "trial.json frame_period_us",
-                    format!("frame_period_us = {p}; must be a finite number > 0 (µs)"),
-                ));
-            }
+        if let Some(p) = self.frame_period_us
+            && !(p.is_finite() && p > 0.0)
+        {
+            return Err(Error::invalid(
+                "trial.json frame_period_us",
+                format!("frame_period_us = {p}; must be a finite number > 0 (µs)"),
+            ));
         }
         Ok(())
     }

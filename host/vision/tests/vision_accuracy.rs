@@ -29,15 +29,16 @@ fn unflagged_poses_meet_the_accuracy_targets() {
         let case = generator.case(&mut rng);
         let m = tracker.measure(&case.frame.image).unwrap();
         let truth = case.frame.truth.peg_pose.unwrap();
-        if let Some((d, a)) = errors(&m, &truth) {
-            if !m.is_flagged() && (d > 10.0 || a.to_degrees() > 2.0) {
-                panic!(
-                    "seed {SEED} frame {i} ({:?}, {:?}): unflagged error {d:.2} µm {:.3}°, {m:?}",
-                    case.placement,
-                    case.probe,
-                    a.to_degrees()
-                );
-            }
+        if let Some((d, a)) = errors(&m, &truth)
+            && !m.is_flagged()
+            && (d > 10.0 || a.to_degrees() > 2.0)
+        {
+            panic!(
+                "seed {SEED} frame {i} ({:?}, {:?}): unflagged error {d:.2} µm {:.3}°, {m:?}",
+                case.placement,
+                case.probe,
+                a.to_degrees()
+            );
         }
         all.add(&m, &truth);
         if case.frame.truth.peg_in_field

@@ -110,17 +110,17 @@ pub fn read_run(path: &Path) -> Result<Vec<RunRow>, Error> {
             continue;
         }
         let row = parse_line(path, i as u64 + 1, l)?;
-        if let Some(prev) = rows.last() {
-            if row.t_s < prev.t_s {
-                return Err(bad(
-                    path,
-                    row.line,
-                    format!(
-                        "field t_s = {} goes back from {} (line {}); allowed: times in order",
-                        row.t_s, prev.t_s, prev.line
-                    ),
-                ));
-            }
+        if let Some(prev) = rows.last()
+            && row.t_s < prev.t_s
+        {
+            return Err(bad(
+                path,
+                row.line,
+                format!(
+                    "field t_s = {} goes back from {} (line {}); allowed: times in order",
+                    row.t_s, prev.t_s, prev.line
+                ),
+            ));
         }
         rows.push(row);
     }
