@@ -94,7 +94,7 @@ impl FrameRetention {
         match self {
             Self::All => true,
             Self::Failed => !success,
-            Self::Every(n) => k % u64::from(n) == 0,
+            Self::Every(n) => k.is_multiple_of(u64::from(n)),
             Self::None => false,
         }
     }

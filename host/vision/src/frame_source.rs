@@ -142,15 +142,15 @@ impl TrialFrames {
         let store = self.store.as_mut().expect("opened above");
         let page = usize::try_from(page).unwrap_or(usize::MAX);
         let holds = store.pages().get(page).map(|m| m.index);
-        if let (Some(want), Some(got)) = (index, holds) {
-            if want != got {
-                let path = store.path().to_path_buf();
-                let message = format!(
-                    "frames.csv row {want} names {file}, but that page holds row {got}; the \
-                     store and frames.csv disagree"
-                );
-                return Err(Error::Parse { path, message });
-            }
+        if let (Some(want), Some(got)) = (index, holds)
+            && want != got
+        {
+            let path = store.path().to_path_buf();
+            let message = format!(
+                "frames.csv row {want} names {file}, but that page holds row {got}; the \
+                 store and frames.csv disagree"
+            );
+            return Err(Error::Parse { path, message });
         }
         read_page(store, page)
     }
