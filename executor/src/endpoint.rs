@@ -1,22 +1,26 @@
-//! The executor core on the wire: two reliable links and their framing around [`Executor`].
+//! The executor core on the wire: the host's reliable link and its framing, and the
+//! controller behind its [`ControllerAdapter`], around [`Executor`].
 //!
 //! Still sans-IO: bytes in ([`Endpoint::on_host_bytes`], [`Endpoint::on_ctrl_bytes`]), bytes
 //! out ([`Endpoint::transmit_host`], [`Endpoint::transmit_ctrl`]), time passed in. The std
 //! shell reads serial ports into it; simulations feed it simulated lines. Messages the core
-//! emits wait in a bounded outbox while a link's window is full (the core's flow control
-//! keeps moves within the window); an outbox that overflows counts the loss in
+//! emits for the host wait in a bounded outbox while the link's window is full (the core's
+//! flow control keeps moves within the window); an outbox that overflows counts the loss in
 //! [`EndpointStats`] (it cannot with `W ≥ LA + MIN_FREE_OUTPUTS`, checked at compile time).
 //! A link that goes down is reported to the core (which stops the trial) and restarted
-//! under a new session so the `Stop` still goes out.
+//! under a new session so the `Stop` still goes out. The controller's side is the adapter's:
+//! the project's own controller by default ([`NativeAdapter`]), a point-to-point controller
+//! with [`Endpoint::with_adapter`].
 
+use crate::adapter::native::NativeAdapter;
+use crate::adapter::{AdapterEvent, ControllerAdapter};
 use crate::io::{Input, LogEvent, MIN_FREE_OUTPUTS, Output, Outputs};
 use crate::machine::Executor;
 use crate::store::PlanStore;
 use crate::{CameraFrame, ExecError};
 use heapless::Deque;
 use mesopush_protocol::{
-    CtrlToExec, ExecToCtrl, ExecToHost, FRAME_BUF_LEN, FrameReader, HostToExec, Link, LinkConfig,
-    encode_frame,
+    ExecToHost, FRAME_BUF_LEN, FrameReader, HostToExec, Link, LinkConfig, encode_frame,
 };
 use serde::de::DeserializeOwned;
 
@@ -38,16 +42,15 @@ pub struct EndpointStats {
     pub overlong_frames: u64,
 }
 
-/// Executor core plus links; `W` is both links' window.
+/// Executor core plus the host link and the controller's adapter `A`; `W` is the host
+/// link's window (and the native controller link's).
 #[derive(Debug)]
-pub struct Endpoint<S, const CAP: usize, const LA: usize, const W: usize> {
+pub struct Endpoint<S, const CAP: usize, const LA: usize, const W: usize, A = NativeAdapter<W>> {
     core: Executor<S, CAP, LA>,
     host_link: Link<ExecToHost, HostToExec, W>,
-    ctrl_link: Link<ExecToCtrl, CtrlToExec, W>,
+    ctrl: A,
     host_reader: FrameReader<FRAME_BUF_LEN>,
-    ctrl_reader: FrameReader<FRAME_BUF_LEN>,
     host_outbox: Deque<ExecToHost, OUT>,
-    ctrl_outbox: Deque<ExecToCtrl, OUT>,
     out: Outputs<OUT>,
     session: u16,
     stats: EndpointStats,
@@ -72,19 +75,40 @@ fn receive<Tx, Rx: DeserializeOwned, const W: usize>(
 }
 
 impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S, CAP, LA, W> {
+    /// Wraps `core` with the project's own controller link; `session` is this boot's link
+    /// session (differs from the last boot's).
+    pub fn new(core: Executor<S, CAP, LA>, link: LinkConfig, session: u16) -> Self {
+        Self::with_adapter(core, link, session, NativeAdapter::new(link, session))
+    }
+
+    /// The controller link (statistics).
+    pub fn ctrl_link(
+        &self,
+    ) -> &Link<mesopush_protocol::ExecToCtrl, mesopush_protocol::CtrlToExec, W> {
+        self.ctrl.link()
+    }
+}
+
+impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize, A: ControllerAdapter>
+    Endpoint<S, CAP, LA, W, A>
+{
     const SIZES_OK: () = assert!(W >= LA + MIN_FREE_OUTPUTS && OUT >= LA + MIN_FREE_OUTPUTS);
 
-    /// Wraps `core`; `session` is this boot's link session (differs from the last boot's).
-    pub fn new(core: Executor<S, CAP, LA>, link: LinkConfig, session: u16) -> Self {
+    /// Wraps `core` with the controller behind `ctrl`; `link` and `session` are the host
+    /// link's.
+    pub fn with_adapter(
+        core: Executor<S, CAP, LA>,
+        link: LinkConfig,
+        session: u16,
+        ctrl: A,
+    ) -> Self {
         let () = Self::SIZES_OK;
         Self {
             core,
             host_link: Link::new(link, session),
-            ctrl_link: Link::new(link, session),
+            ctrl,
             host_reader: FrameReader::new(),
-            ctrl_reader: FrameReader::new(),
             host_outbox: Deque::new(),
-            ctrl_outbox: Deque::new(),
             out: Outputs::new(),
             session,
             stats: EndpointStats::default(),
@@ -96,14 +120,20 @@ impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S
         &self.core
     }
 
-    /// Counters.
-    pub fn stats(&self) -> EndpointStats {
-        self.stats
+    /// The controller's adapter.
+    pub fn adapter(&self) -> &A {
+        &self.ctrl
     }
 
-    /// The controller link (statistics).
-    pub fn ctrl_link(&self) -> &Link<ExecToCtrl, CtrlToExec, W> {
-        &self.ctrl_link
+    /// Counters (the host link's and the controller adapter's).
+    pub fn stats(&self) -> EndpointStats {
+        let a = self.ctrl.stats();
+        EndpointStats {
+            ctrl_dropped: a.dropped_commands,
+            ctrl_link_downs: a.link_downs,
+            overlong_frames: self.stats.overlong_frames + a.unreadable,
+            ..self.stats
+        }
     }
 
     /// The host link (statistics).
@@ -127,17 +157,32 @@ impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S
         Ok(())
     }
 
-    /// Bytes from the controller line.
+    /// Bytes from the controller (a chunk of its line, or one datagram).
     pub fn on_ctrl_bytes(
         &mut self,
         now_us: u64,
-        bytes: &[u8],
+        mut bytes: &[u8],
         log: &mut impl FnMut(&LogEvent),
     ) -> Result<(), ExecError> {
-        for &byte in bytes {
-            let (reader, link) = (&mut self.ctrl_reader, &mut self.ctrl_link);
-            if let Some(msg) = receive(reader, link, &mut self.stats, now_us, byte) {
-                self.feed(now_us, Input::Ctrl(&msg), log)?;
+        loop {
+            let used = self.ctrl.receive(now_us, bytes).min(bytes.len());
+            bytes = &bytes[used..];
+            self.drain_ctrl_events(now_us, log)?;
+            if bytes.is_empty() || used == 0 {
+                return Ok(());
+            }
+        }
+    }
+
+    fn drain_ctrl_events(
+        &mut self,
+        now_us: u64,
+        log: &mut impl FnMut(&LogEvent),
+    ) -> Result<(), ExecError> {
+        while let Some(event) = self.ctrl.next_event() {
+            match event {
+                AdapterEvent::Ctrl(msg) => self.feed(now_us, Input::Ctrl(&msg), log)?,
+                AdapterEvent::LinkDown => self.feed(now_us, Input::CtrlLinkDown, log)?,
             }
         }
         Ok(())
@@ -161,42 +206,34 @@ impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S
             self.host_link.reset(self.session);
             self.feed(now_us, Input::HostLinkDown, log)?;
         }
-        if self.ctrl_link.poll(now_us).is_err() {
-            self.stats.ctrl_link_downs += 1;
-            self.session = self.session.wrapping_add(1);
-            self.ctrl_link.reset(self.session);
-            self.feed(now_us, Input::CtrlLinkDown, log)?;
-        }
+        self.ctrl.poll(now_us);
+        self.drain_ctrl_events(now_us, log)?;
         self.feed(now_us, Input::Tick, log)
     }
 
     /// When to call [`Self::poll`] next, µs in the executor's clock.
     pub fn next_deadline_us(&self) -> u64 {
-        let links = [self.host_link.next_timeout_us(), self.ctrl_link.next_timeout_us()];
+        let links = [self.host_link.next_timeout_us(), self.ctrl.next_deadline_us()];
         links.into_iter().flatten().fold(self.core.next_deadline_us(), u64::min)
     }
 
     /// The next frame for the host, encoded into `buf`.
     pub fn transmit_host<'b>(&mut self, now_us: u64, buf: &'b mut [u8]) -> Option<&'b [u8]> {
-        Self::flush(&mut self.host_outbox, &mut self.host_link);
+        self.flush_host();
         let frame = self.host_link.poll_transmit(now_us)?;
         encode_frame(&frame, buf).ok()
     }
 
-    /// The next frame for the controller, encoded into `buf`.
+    /// The next bytes for the controller (a frame, a command or a datagram), encoded into
+    /// `buf`.
     pub fn transmit_ctrl<'b>(&mut self, now_us: u64, buf: &'b mut [u8]) -> Option<&'b [u8]> {
-        Self::flush(&mut self.ctrl_outbox, &mut self.ctrl_link);
-        let frame = self.ctrl_link.poll_transmit(now_us)?;
-        encode_frame(&frame, buf).ok()
+        self.ctrl.transmit(now_us, buf)
     }
 
-    fn flush<Tx, Rx: serde::de::DeserializeOwned>(
-        outbox: &mut Deque<Tx, OUT>,
-        link: &mut Link<Tx, Rx, W>,
-    ) {
-        while let Some(msg) = outbox.pop_front() {
-            if let Err(msg) = link.send(msg) {
-                let _ = outbox.push_front(msg); // the slot just freed
+    fn flush_host(&mut self) {
+        while let Some(msg) = self.host_outbox.pop_front() {
+            if let Err(msg) = self.host_link.send(msg) {
+                let _ = self.host_outbox.push_front(msg); // the slot just freed
                 return;
             }
         }
@@ -216,17 +253,12 @@ impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize> Endpoint<S
                         self.stats.host_dropped += 1;
                     }
                 }
-                Output::Ctrl(m) => {
-                    if self.ctrl_outbox.push_back(*m).is_err() {
-                        self.stats.ctrl_dropped += 1;
-                    }
-                }
+                Output::Ctrl(m) => self.ctrl.command(now_us, m),
                 Output::Log(e) => log(e),
             }
         }
         self.out.clear();
-        Self::flush(&mut self.host_outbox, &mut self.host_link);
-        Self::flush(&mut self.ctrl_outbox, &mut self.ctrl_link);
+        self.flush_host();
         Ok(())
     }
 }

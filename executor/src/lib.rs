@@ -20,6 +20,7 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod adapter;
 #[cfg(feature = "std")]
 pub mod bench;
 pub mod camera;
