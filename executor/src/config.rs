@@ -25,6 +25,17 @@ impl Workspace {
     }
 }
 
+/// How a plan is cut into the segments the controller receives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Segmenting {
+    /// One segment per setpoint period (`setpoint_rate_hz`): the project's streaming
+    /// controller, which queues short timed moves and blends them (the default).
+    Setpoints,
+    /// One segment per plan step, at the step's speed: point-to-point controllers, which run
+    /// one "move to" at a time with their own acceleration ([`crate::adapter`]).
+    PlanSteps,
+}
+
 /// Executor settings. All fields are plain data; see [`ExecutorConfig::DEFAULT`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ExecutorConfig {
@@ -39,7 +50,10 @@ pub struct ExecutorConfig {
     /// Default 200 mm/s² (so a 140 µm/s start from rest passes even at 1 kHz).
     pub max_accel_nm_s2: u64,
     /// Setpoint rate, Hz: one controller segment per period. Default 100, allowed 1..=1000.
+    /// With [`Segmenting::PlanSteps`] it sets only the look-ahead horizon's unit.
     pub setpoint_rate_hz: u32,
+    /// How plans are cut into segments. Default [`Segmenting::Setpoints`].
+    pub segmenting: Segmenting,
     /// How far ahead of the controller's clock the first segment of a trial starts, µs.
     /// Default 50 ms.
     pub start_lead_us: u64,
@@ -98,6 +112,7 @@ impl ExecutorConfig {
         max_speed_nm_s: 1_000_000,
         max_accel_nm_s2: 200_000_000,
         setpoint_rate_hz: 100,
+        segmenting: Segmenting::Setpoints,
         start_lead_us: 50_000,
         underrun_margin_us: 2_000,
         lookahead_segments: 16,

@@ -43,7 +43,7 @@ pub mod sync;
 
 pub use camera::{CameraFrame, FrameStamper, StampedFrame};
 pub use clock::{Clock, ManualClock};
-pub use config::{ExecutorConfig, Workspace};
+pub use config::{ExecutorConfig, Segmenting, Workspace};
 pub use error::{ExecError, RtCause, RtStep, StoreError};
 pub use io::{Input, LogEvent, MIN_FREE_OUTPUTS, Output, Outputs, Refusal};
 pub use machine::Executor;

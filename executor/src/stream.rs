@@ -9,8 +9,12 @@
 //! controller queue capacity)` in flight (sent, not reported done), where the capacity is
 //! `queue_free_slots + queue_len` from the controller's last status. A segment still unsent
 //! `underrun_margin_us` before its start is an underrun: the controller's queue would run dry.
+//!
+//! With [`Segmenting::PlanSteps`] (point-to-point controllers) segment `k` is plan step `k`
+//! whole: from the step's start to its end, starting at the step's scheduled start, at the
+//! step's own speed; send schedule, flow control and underrun are as above.
 
-use crate::config::ExecutorConfig;
+use crate::config::{ExecutorConfig, Segmenting};
 use crate::plan::{FlashedPlan, StepGeometry, hypot_nm, lerp_nm};
 use heapless::Deque;
 use mesopush_protocol::ctrl::MoveSegment;
@@ -56,6 +60,7 @@ pub struct Streamer<const LA: usize> {
     inflight: Deque<(MoveSegment, u32, u64), LA>,
     done_base_nm: (i64, i64),
     ctrl_capacity: u16,
+    per_step: bool,
 }
 
 impl<const LA: usize> Streamer<LA> {
@@ -72,13 +77,16 @@ impl<const LA: usize> Streamer<LA> {
         let period_us = config.setpoint_period_us();
         let total_us: u64 = plan.steps().map(|s| StepGeometry::of(&s).duration_us).sum();
         let start = (i64::from(start_nm.0), i64::from(start_nm.1));
+        let per_step = config.segmenting == Segmenting::PlanSteps;
+        let segment_count =
+            if per_step { u64::from(plan.step_count()) } else { total_us.div_ceil(period_us) };
         Self {
             t0_ctrl_us,
             started_ctrl_us: t0_ctrl_us.saturating_sub(config.start_lead_us),
             period_us,
             total_us,
             next_k: 1,
-            segment_count: total_us.div_ceil(period_us),
+            segment_count,
             first_segment_id,
             cursor: Cursor {
                 step_index: 0,
@@ -91,6 +99,7 @@ impl<const LA: usize> Streamer<LA> {
             inflight: Deque::new(),
             done_base_nm: start,
             ctrl_capacity,
+            per_step,
         }
     }
 
@@ -211,6 +220,9 @@ impl<const LA: usize> Streamer<LA> {
     }
 
     fn generate<const CAP: usize>(&mut self, plan: &FlashedPlan<CAP>) -> (MoveSegment, u32, u64) {
+        if self.per_step {
+            return self.generate_step(plan);
+        }
         let k = self.next_k;
         self.next_k += 1;
         let start_rel = (k - 1) * self.period_us;
@@ -229,6 +241,30 @@ impl<const LA: usize> Streamer<LA> {
             speed_nm_s: speed,
         };
         (segment, step_index, dur)
+    }
+
+    /// Segment `k` of [`Segmenting::PlanSteps`]: plan step `k − 1` whole, at its speed.
+    fn generate_step<const CAP: usize>(
+        &mut self,
+        plan: &FlashedPlan<CAP>,
+    ) -> (MoveSegment, u32, u64) {
+        let k = self.next_k;
+        self.next_k += 1;
+        let step_index = self.cursor.step_index;
+        let start_rel = self.cursor.step_start_rel_us;
+        let dur = self.cursor.geometry.map_or(0, |g| g.duration_us);
+        let speed = plan.step(step_index).map_or(1, |s| s.speed_nm_s.max(1));
+        // The step's end: the cursor moves on to the next step's start.
+        let target = self.position_at(plan, start_rel + dur);
+        self.prev_setpoint_nm = target;
+        let segment = MoveSegment {
+            segment_id: self.first_segment_id.wrapping_add((k - 1) as u32),
+            start_ctrl_time_us: self.t0_ctrl_us + start_rel,
+            target_x_nm: target.0 as i32,
+            target_y_nm: target.1 as i32,
+            speed_nm_s: speed,
+        };
+        (segment, step_index, dur.max(1))
     }
 
     /// Path position `rel_us` after the start; advances the cursor (times never decrease).
@@ -316,5 +352,37 @@ mod tests {
         // Capacity 1 and no status: segment 2 (start 110 ms) cannot go.
         assert_eq!(s.poll(&plan, &config, 100_000), StreamPoll::Wait);
         assert_eq!(s.poll(&plan, &config, 108_000), StreamPoll::Underrun { step_index: 0 });
+    }
+
+    /// Point-to-point controllers get whole steps: 2 steps → 2 segments, each from its
+    /// scheduled start to the step's end at the step's speed.
+    #[test]
+    fn plan_steps_segmenting_sends_one_segment_per_step() {
+        let plan = plan(&[
+            PlanStep { dx_nm: 14_000, dy_nm: 0, speed_nm_s: 140_000 },
+            PlanStep { dx_nm: 0, dy_nm: -30_000, speed_nm_s: 100_000 },
+        ]);
+        let config =
+            ExecutorConfig { segmenting: Segmenting::PlanSteps, ..ExecutorConfig::DEFAULT };
+        let mut s: Streamer<4> = Streamer::new(&plan, &config, (1_000, 2_000), 100_000, 5, 8);
+        assert_eq!(s.segment_count(), 2);
+        let StreamPoll::Send(a) = s.poll(&plan, &config, 50_000) else { panic!() };
+        s.sent();
+        // The second starts 100 ms later (14 µm at 140 µm/s), at 200 ms: due 160 ms (the
+        // look-ahead horizon) before, at 40 ms, so at 50 ms it goes out too.
+        let StreamPoll::Send(b) = s.poll(&plan, &config, 50_000) else { panic!() };
+        s.sent();
+        assert_eq!(
+            (a.segment_id, a.start_ctrl_time_us, a.target_x_nm, a.target_y_nm, a.speed_nm_s),
+            (5, 100_000, 15_000, 2_000, 140_000)
+        );
+        assert_eq!(
+            (b.segment_id, b.start_ctrl_time_us, b.target_x_nm, b.target_y_nm, b.speed_nm_s),
+            (6, 200_000, 15_000, -28_000, 100_000)
+        );
+        assert_eq!(s.commanded_at(150_000), Some((8_000, 2_000)));
+        assert_eq!(s.commanded_at(350_000), Some((15_000, -13_000)));
+        s.on_status(Some(6), 8);
+        assert_eq!(s.poll(&plan, &config, 600_000), StreamPoll::Finished);
     }
 }
