@@ -15,6 +15,7 @@
 //! [`ControllerAdapter::next_event`]. No allocation: every queue has a fixed capacity.
 
 pub mod native;
+pub mod p2p;
 
 use mesopush_protocol::ExecToCtrl;
 use mesopush_protocol::ctrl::CtrlToExec;

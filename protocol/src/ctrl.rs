@@ -109,6 +109,9 @@ pub enum FaultCode {
     ExecutorSilent,
     /// A code this schema does not name.
     Other(u16),
+    /// A point-to-point controller did not execute a move it was sent (the stage stayed
+    /// where it was; a Sutter ignores moves shorter than its resolution without a word).
+    MoveIgnored,
 }
 
 /// A controller fault; the controller stops and enters [`CtrlState::Faulted`].
@@ -172,7 +175,7 @@ impl MaxSize for CtrlStatus {
 }
 
 impl MaxSize for FaultCode {
-    const MAX_SIZE: usize = discriminant_bytes(9) + u16::MAX_SIZE;
+    const MAX_SIZE: usize = discriminant_bytes(10) + u16::MAX_SIZE;
 }
 
 impl MaxSize for FaultReport {

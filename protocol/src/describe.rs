@@ -117,6 +117,11 @@ impl fmt::Display for FaultCode {
                 "the controller reported fault code {code}, which this software does not \
                  know; see the controller's manual"
             ),
+            Self::MoveIgnored => f.write_str(
+                "the controller did not execute a move it was sent (the stage stayed where it \
+                 was); check that the manipulator is not in manual mode and that its cable is \
+                 seated, then `rig status` and re-run",
+            ),
         }
     }
 }

@@ -292,6 +292,7 @@ pub fn ctrl_to_exec() -> Vec<(String, CtrlToExec)> {
         FaultCode::SegmentLate,
         FaultCode::ExecutorSilent,
         FaultCode::Other(0x1234),
+        FaultCode::MoveIgnored,
     ];
     for code in codes {
         let fault = FaultReport { code, ..fault_report() };

@@ -133,6 +133,7 @@ pub fn fault_code() -> impl Strategy<Value = FaultCode> {
         Just(FaultCode::SegmentLate),
         Just(FaultCode::ExecutorSilent),
         any::<u16>().prop_map(FaultCode::Other),
+        Just(FaultCode::MoveIgnored),
     ]
 }
 
