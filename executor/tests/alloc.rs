@@ -264,7 +264,7 @@ fn a_trial_through_the_point_to_point_adapter_allocates_nothing_after_start_up()
     let mut buf = [0u8; 64];
 
     COUNTING.with(|c| c.set(true));
-    let mut host = |exec: &mut Exec, out: &mut Outputs<OUT>, now: u64, msg: HostToExec| {
+    let host = |exec: &mut Exec, out: &mut Outputs<OUT>, now: u64, msg: HostToExec| {
         exec.handle(now, Input::Host(&msg), out).expect("room");
     };
     host(&mut exec, &mut out, 1_000, HostToExec::Hello(Hello::CURRENT));
