@@ -147,4 +147,20 @@ pub trait Protocol {
 
     /// Forgets a partly received reply (after a timeout).
     fn reset_receiver(&mut self);
+
+    /// Whether the position may be polled while the stage rests (`idle_poll_us`). An MP-285
+    /// asked for its position while its knob is turned may hang, so its adapter reads the
+    /// position only when it needs it (start-up, the end of each move). Default true.
+    fn idle_polls_safe(&self) -> bool {
+        true
+    }
+
+    /// Decodes bytes that answer no request (a notification a device pushes, such as a
+    /// Sensapex's position or move-completed datagram): [`Reply::Position`], or
+    /// [`Reply::Busy`]`(false)` for a move that ended. Default: none (the bytes are counted
+    /// as unreadable).
+    fn unsolicited(&mut self, bytes: &[u8]) -> Option<Reply> {
+        let _ = bytes;
+        None
+    }
 }

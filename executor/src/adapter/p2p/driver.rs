@@ -288,6 +288,10 @@ impl<P: Protocol, const Q: usize> ControllerAdapter for PointToPointAdapter<P, Q
     }
 
     fn receive(&mut self, now_us: u64, bytes: &[u8]) -> usize {
+        if let Some(reply) = self.proto.unsolicited(bytes) {
+            self.on_unsolicited(now_us, reply);
+            return bytes.len();
+        }
         let Some(flight) = self.inflight else {
             self.stats.unreadable += 1; // unasked-for bytes: a stray terminator
             return bytes.len();

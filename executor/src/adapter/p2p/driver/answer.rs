@@ -18,6 +18,16 @@ impl<P: Protocol, const Q: usize> PointToPointAdapter<P, Q> {
                     self.note_position(now_us, p);
                 }
             }
+            (Request::Busy, Reply::Position(p)) => {
+                // A device polled by position (no busy query): arrived when at the target.
+                self.note_position(now_us, p);
+                let tolerance_nm = u64::from(self.settings.arrive_tolerance_nm);
+                if let Some(a) = self.active
+                    && (self.distance_nm(p, a.target) <= tolerance_nm || now_us > a.deadline_us)
+                {
+                    self.set_verifying();
+                }
+            }
             (_, Reply::Position(p)) => {
                 self.note_position(now_us, p);
                 if let Some(active) = self.active.filter(|a| a.verifying) {
@@ -59,6 +69,15 @@ impl<P: Protocol, const Q: usize> PointToPointAdapter<P, Q> {
         self.commanded = None;
         self.measured = None;
         self.next_poll_us = now_us + self.settings.idle_poll_us;
+    }
+
+    /// A notification the device pushed.
+    pub(super) fn on_unsolicited(&mut self, now_us: u64, reply: Reply) {
+        match reply {
+            Reply::Position(p) => self.note_position(now_us, p),
+            Reply::Busy(false) => self.set_verifying(),
+            _ => self.stats.unreadable += 1,
+        }
     }
 
     fn note_position(&mut self, now_us: u64, p: [i32; 3]) {

@@ -31,7 +31,7 @@ impl<P: Protocol, const Q: usize> PointToPointAdapter<P, Q> {
         if self.queue.front().is_some_and(|s| s.start_ctrl_time_us <= now_us) {
             return self.begin_move(now_us);
         }
-        if now_us >= self.next_poll_us {
+        if now_us >= self.next_poll_us && self.proto.idle_polls_safe() {
             self.next_poll_us = now_us + self.settings.idle_poll_us;
             self.start(now_us, Request::Position);
         }
