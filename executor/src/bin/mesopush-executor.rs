@@ -10,10 +10,15 @@
 use anyhow::{Context, Result, bail};
 use clap::{Args as ClapArgs, Parser, Subcommand};
 use crossbeam_channel::{Receiver, bounded};
+use mesopush_executor::adapter::ControllerAdapter;
+use mesopush_executor::adapter::native::NativeAdapter;
+use mesopush_executor::adapter::p2p::driver::{P2pSettings, PointToPointAdapter};
+use mesopush_executor::adapter::p2p::mpc200::Mpc200;
 use mesopush_executor::bench::{BenchOptions, run_bench};
 use mesopush_executor::clock::MonotonicClock;
 use mesopush_executor::endpoint::Endpoint;
 use mesopush_executor::shell::camera_source::{CameraCounters, CameraEnd, spawn_camera_reader};
+use mesopush_executor::shell::controller::{ControllerKind, Line as ControllerLine, open_line};
 use mesopush_executor::shell::port::{ByteRead, ByteWrite, split_tty};
 use mesopush_executor::shell::record::{ExecRecorder, RecordConfig};
 use mesopush_executor::shell::rt::{RtApplied, RtOptions, apply};
@@ -21,7 +26,7 @@ use mesopush_executor::shell::runner::ShellEnd;
 use mesopush_executor::shell::unix_line::{LineAddr, listen};
 use mesopush_executor::shell::{Shell, ShellOptions, ShellStats};
 use mesopush_executor::store::file::FileStore;
-use mesopush_executor::{CameraFrame, Executor, ExecutorConfig, LogEvent, PlanStore};
+use mesopush_executor::{CameraFrame, Executor, ExecutorConfig, LogEvent, PlanStore, Segmenting};
 use mesopush_protocol::LinkConfig;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -125,12 +130,20 @@ struct Args {
     /// listen on a Unix socket that one host at a time connects to (`mesopush flash/run`).
     #[arg(long)]
     host_port: String,
-    /// Serial port of the motion controller line.
+    /// The motion controller's line: a serial port, or `udp:HOST:PORT` for a controller on
+    /// the network (Sensapex).
     #[arg(long)]
     ctrl_port: String,
-    /// Baud rate of both lines.
+    /// The motion controller: `native` (the project's streaming controller, e.g.
+    /// `mesopush-fwsim`) or a point-to-point one (`mpc200`); docs/hardware.md.
+    #[arg(long, default_value = "native")]
+    controller: String,
+    /// Baud rate of the host line (and of a native controller's).
     #[arg(long, default_value_t = 1_000_000)]
     baud: u32,
+    /// Baud rate of the controller line [default: the controller's documented rate].
+    #[arg(long, value_name = "BAUD")]
+    ctrl_baud: Option<u32>,
     /// File keeping the accepted plan across restarts (replaced atomically).
     #[arg(long, default_value = "executor-plan.bin")]
     plan_store: PathBuf,
@@ -370,18 +383,46 @@ fn run(args: Args) -> Result<()> {
     if usize::from(args.lookahead_segments) > LA {
         bail!("--lookahead-segments {} exceeds the queue of {LA}", args.lookahead_segments);
     }
-    let config = motion_config(&args)?;
+    let kind = ControllerKind::parse(&args.controller)
+        .map_err(|e| anyhow::anyhow!("--controller: {e}"))?;
+    let mut config = motion_config(&args)?;
+    if kind.point_to_point() {
+        config.segmenting = Segmenting::PlanSteps;
+    }
     let store = FileStore::new(&args.plan_store);
     let core = Executor::<_, CAP, LA>::new(config, store).context("executor configuration")?;
     if let Some(issue) = core.startup_issue() {
         eprintln!("stored plan not loaded: {issue}");
     }
     let session = next_session(&args.plan_store)?;
-    let mut endpoint = Endpoint::<_, CAP, LA, W>::new(core, LinkConfig::DEFAULT, session);
-    let ctrl = split_tty(open(&args.ctrl_port, args.baud)?).context("controller port")?;
+    let baud = args.ctrl_baud.unwrap_or(match kind {
+        ControllerKind::Native => args.baud,
+        k => k.default_baud(),
+    });
+    let ctrl = open_line(&args.ctrl_port, baud)
+        .with_context(|| format!("controller line {}", args.ctrl_port))?;
+    match kind {
+        ControllerKind::Native => {
+            let adapter = NativeAdapter::<W>::new(LinkConfig::DEFAULT, session);
+            run_on(&args, Endpoint::with_adapter(core, LinkConfig::DEFAULT, session, adapter), ctrl)
+        }
+        ControllerKind::Mpc200 => {
+            let adapter =
+                PointToPointAdapter::<Mpc200, LA>::new(Mpc200::new(), P2pSettings::DEFAULT);
+            run_on(&args, Endpoint::with_adapter(core, LinkConfig::DEFAULT, session, adapter), ctrl)
+        }
+    }
+}
+
+/// The loop on `ctrl` with the controller behind `endpoint`'s adapter.
+fn run_on<A: ControllerAdapter>(
+    args: &Args,
+    mut endpoint: Endpoint<FileStore, CAP, LA, W, A>,
+    ctrl: ControllerLine,
+) -> Result<()> {
     let clock = Arc::new(MonotonicClock::new());
     let (log_tx, log_rx) = bounded(4096);
-    let side = sidecar(&args, &clock, log_rx)?;
+    let side = sidecar(args, &clock, log_rx)?;
     let (stop_tx, stop_rx) = bounded(1);
     if let Some(s) = args.duration_s {
         std::thread::spawn(move || {
@@ -424,10 +465,10 @@ fn run(args: Args) -> Result<()> {
 }
 
 /// What the executor says on stderr when it stops: the loop's timing and the camera's counts.
-fn report_stop<S: PlanStore>(
+fn report_stop<S: PlanStore, A: ControllerAdapter>(
     end: &ShellEnd,
     stats: &ShellStats,
-    endpoint: &Endpoint<S, CAP, LA, W>,
+    endpoint: &Endpoint<S, CAP, LA, W, A>,
     camera_end: Option<std::thread::Result<CameraEnd>>,
     c: &CameraCounters,
 ) {
@@ -481,15 +522,15 @@ impl Args {
 }
 
 struct Lines {
-    ctrl: (serialport::TTYPort, serialport::TTYPort),
+    ctrl: ControllerLine,
     frames: Option<Receiver<CameraFrame>>,
     log_tx: crossbeam_channel::Sender<LogEvent>,
     stop_rx: Receiver<()>,
     opts: ShellOptions,
 }
 
-fn serve<S: PlanStore>(
-    endpoint: &mut Endpoint<S, CAP, LA, W>,
+fn serve<S: PlanStore, A: ControllerAdapter>(
+    endpoint: &mut Endpoint<S, CAP, LA, W, A>,
     clock: &MonotonicClock,
     host: (impl ByteRead + 'static, impl ByteWrite),
     l: Lines,

@@ -16,6 +16,8 @@
 
 #[cfg(unix)]
 pub mod camera_source;
+#[cfg(unix)]
+pub mod controller;
 pub mod fsx;
 pub mod port;
 #[cfg(unix)]

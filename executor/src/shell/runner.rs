@@ -2,6 +2,7 @@
 
 use super::port::{ByteRead, ByteWrite, CHUNK_BYTES, Chunk};
 use super::timing::SendTiming;
+use crate::adapter::ControllerAdapter;
 use crate::camera::CameraFrame;
 use crate::clock::Clock;
 use crate::endpoint::Endpoint;
@@ -107,8 +108,14 @@ impl Shell {
     /// frames arrive on `frames`, log records go to `log` (never blocking). Default
     /// [`ShellOptions`].
     #[allow(clippy::too_many_arguments)]
-    pub fn run<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
-        endpoint: &mut Endpoint<S, CAP, LA, W>,
+    pub fn run<
+        S: PlanStore,
+        const CAP: usize,
+        const LA: usize,
+        const W: usize,
+        A: ControllerAdapter,
+    >(
+        endpoint: &mut Endpoint<S, CAP, LA, W, A>,
         clock: &impl Clock,
         host: (impl ByteRead + 'static, impl ByteWrite),
         ctrl: (impl ByteRead + 'static, impl ByteWrite),
@@ -124,8 +131,14 @@ impl Shell {
     /// [`Self::run`] with `opts`; `lines` are the host line, the controller line and the
     /// camera frames.
     #[allow(clippy::type_complexity)]
-    pub fn run_with<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
-        endpoint: &mut Endpoint<S, CAP, LA, W>,
+    pub fn run_with<
+        S: PlanStore,
+        const CAP: usize,
+        const LA: usize,
+        const W: usize,
+        A: ControllerAdapter,
+    >(
+        endpoint: &mut Endpoint<S, CAP, LA, W, A>,
         clock: &impl Clock,
         lines: (
             (impl ByteRead + 'static, impl ByteWrite),
@@ -173,8 +186,14 @@ impl Shell {
     /// One pass: wait for input or the deadline (sleep, then spin when the deadline is a
     /// send due at `due`), feed what came, poll the core.
     #[allow(clippy::too_many_arguments)]
-    fn iterate<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
-        endpoint: &mut Endpoint<S, CAP, LA, W>,
+    fn iterate<
+        S: PlanStore,
+        const CAP: usize,
+        const LA: usize,
+        const W: usize,
+        A: ControllerAdapter,
+    >(
+        endpoint: &mut Endpoint<S, CAP, LA, W, A>,
         clock: &impl Clock,
         lines: &Lines<'_>,
         log: &Sender<LogEvent>,
@@ -220,8 +239,14 @@ impl Shell {
         None
     }
 
-    fn transmit<S: PlanStore, const CAP: usize, const LA: usize, const W: usize>(
-        endpoint: &mut Endpoint<S, CAP, LA, W>,
+    fn transmit<
+        S: PlanStore,
+        const CAP: usize,
+        const LA: usize,
+        const W: usize,
+        A: ControllerAdapter,
+    >(
+        endpoint: &mut Endpoint<S, CAP, LA, W, A>,
         now: u64,
         host_w: &mut impl ByteWrite,
         ctrl_w: &mut impl ByteWrite,
