@@ -25,6 +25,7 @@ fn run(plan: Plan, world: WorldFile, seed: u64, dir: &Path) -> TrialReport {
         seed,
         clock: ClockMode::Simulated,
         peg_start: None,
+        controller: mesopush_executor::shell::controller::ControllerKind::Native,
     };
     let r = run_trial(&spec, dir, &mut |_| {}).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
     assert_eq!(r.state, TrialState::Done, "seed {seed}: {r:?}");

@@ -26,6 +26,7 @@ fn spec(plan: Plan, world: WorldFile, seed: u64) -> TrialSpec {
         seed,
         clock: ClockMode::Simulated,
         peg_start: None,
+        controller: mesopush_executor::shell::controller::ControllerKind::Native,
     }
 }
 

@@ -152,6 +152,7 @@ impl TrialRunner for RigRunner {
             seed: job.attempt_seed,
             clock: ClockMode::Simulated,
             peg_start: Some(job.peg_start),
+            controller: mesopush_rig::drive::spec::ControllerKind::Native,
         };
         let mut progress = |_p: mesopush_rig::TrialProgress| {
             if cancel.is_cancelled() {

@@ -56,6 +56,7 @@ pub fn write_rig_batch(
                 seed: seed.wrapping_mul(1000).wrapping_add(k as u64),
                 clock: ClockMode::Simulated,
                 peg_start: None,
+                controller: mesopush_rig::drive::spec::ControllerKind::Native,
             };
             let report = run_trial(&spec, &out.join(&id), &mut |_| {})?;
             if report.state != TrialState::Done {

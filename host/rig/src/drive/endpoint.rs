@@ -1,13 +1,18 @@
 //! The executor the in-process loops run: the executor crate's allocation-free core and its
 //! links ([`Endpoint`]) with the rig's fixed capacities, built one way for the simulated-time
 //! and the real-time loop. The link window is the controller's ([`EW`]), so both ends of the
-//! line agree.
+//! line agree. The controller behind it is chosen per trial ([`ControllerKind`]): the
+//! project's streaming controller, or a point-to-point one through its adapter
+//! ([`ExecEndpoint`]), which then receives one segment per plan step.
 
 use crate::Error;
 use crate::plant::controller::EW;
+use mesopush_executor::adapter::p2p::driver::{P2pSettings, PointToPointAdapter};
+use mesopush_executor::adapter::p2p::mpc200::Mpc200;
 use mesopush_executor::endpoint::Endpoint;
-use mesopush_executor::{Executor, ExecutorConfig, MemStore};
-use mesopush_protocol::LinkConfig;
+use mesopush_executor::shell::controller::ControllerKind;
+use mesopush_executor::{ExecError, Executor, ExecutorConfig, LogEvent, MemStore, Segmenting};
+use mesopush_protocol::{LinkConfig, LinkStats};
 
 /// Plan memory of the executor: 4096 steps.
 pub const CAP: usize = 12 * 4096;
@@ -17,9 +22,107 @@ pub const LA: usize = 32;
 /// The in-process executor: core, plan memory, host and controller links.
 pub type InProcessEndpoint = Endpoint<MemStore<CAP>, CAP, LA, EW>;
 
+/// The in-process executor with a point-to-point adapter speaking `P`.
+pub type P2pEndpoint<P> = Endpoint<MemStore<CAP>, CAP, LA, EW, PointToPointAdapter<P, LA>>;
+
+/// The in-process executor with the controller chosen for the trial.
+#[derive(Debug)]
+pub enum ExecEndpoint {
+    /// The project's streaming controller.
+    Native(Box<InProcessEndpoint>),
+    /// A Sutter MPC-200.
+    Mpc200(Box<P2pEndpoint<Mpc200>>),
+}
+
 /// An executor with `config` whose links use the session id `session`.
 pub fn endpoint(config: ExecutorConfig, session: u16) -> Result<InProcessEndpoint, Error> {
-    let core = Executor::new(config, MemStore::new())
-        .map_err(|e| Error::invalid("executor config", e.to_string()))?;
-    Ok(Endpoint::new(core, LinkConfig::DEFAULT, session))
+    Ok(Endpoint::new(core(config)?, LinkConfig::DEFAULT, session))
+}
+
+fn core(config: ExecutorConfig) -> Result<Executor<MemStore<CAP>, CAP, LA>, Error> {
+    Executor::new(config, MemStore::new())
+        .map_err(|e| Error::invalid("executor config", e.to_string()))
+}
+
+/// The executor for `kind`: point-to-point controllers get plan steps whole.
+pub fn endpoint_for(
+    kind: ControllerKind,
+    mut config: ExecutorConfig,
+    session: u16,
+) -> Result<ExecEndpoint, Error> {
+    if kind.point_to_point() {
+        config.segmenting = Segmenting::PlanSteps;
+    }
+    let link = LinkConfig::DEFAULT;
+    Ok(match kind {
+        ControllerKind::Native => ExecEndpoint::Native(Box::new(endpoint(config, session)?)),
+        ControllerKind::Mpc200 => {
+            let adapter = PointToPointAdapter::new(Mpc200::new(), P2pSettings::DEFAULT);
+            let ep = Endpoint::with_adapter(core(config)?, link, session, adapter);
+            ExecEndpoint::Mpc200(Box::new(ep))
+        }
+    })
+}
+
+/// The same call on whichever endpoint it is.
+macro_rules! each {
+    ($self:expr, $ep:ident => $body:expr) => {
+        match $self {
+            ExecEndpoint::Native($ep) => $body,
+            ExecEndpoint::Mpc200($ep) => $body,
+        }
+    };
+}
+
+type Log<'a> = &'a mut dyn FnMut(&LogEvent);
+
+impl ExecEndpoint {
+    /// Bytes from the controller.
+    pub fn on_ctrl_bytes(&mut self, now: u64, b: &[u8], log: Log<'_>) -> Result<(), ExecError> {
+        each!(self, ep => ep.on_ctrl_bytes(now, b, &mut |e| log(e)))
+    }
+
+    /// Bytes from the host.
+    pub fn on_host_bytes(&mut self, now: u64, b: &[u8], log: Log<'_>) -> Result<(), ExecError> {
+        each!(self, ep => ep.on_host_bytes(now, b, &mut |e| log(e)))
+    }
+
+    /// A camera frame.
+    pub fn on_frame(
+        &mut self,
+        now: u64,
+        frame: mesopush_executor::CameraFrame,
+        log: Log<'_>,
+    ) -> Result<(), ExecError> {
+        each!(self, ep => ep.on_frame(now, frame, &mut |e| log(e)))
+    }
+
+    /// Timers.
+    pub fn poll(&mut self, now: u64, log: Log<'_>) -> Result<(), ExecError> {
+        each!(self, ep => ep.poll(now, &mut |e| log(e)))
+    }
+
+    /// The next bytes for the controller.
+    pub fn transmit_ctrl<'b>(&mut self, now: u64, buf: &'b mut [u8]) -> Option<&'b [u8]> {
+        each!(self, ep => ep.transmit_ctrl(now, buf))
+    }
+
+    /// The next frame for the host.
+    pub fn transmit_host<'b>(&mut self, now: u64, buf: &'b mut [u8]) -> Option<&'b [u8]> {
+        each!(self, ep => ep.transmit_host(now, buf))
+    }
+
+    /// The host link's statistics.
+    pub fn host_link_stats(&self) -> LinkStats {
+        each!(self, ep => ep.host_link().stats())
+    }
+
+    /// The controller link's statistics (the native link's; a point-to-point controller's
+    /// line has no link layer: zero).
+    pub fn ctrl_link_stats(&self) -> LinkStats {
+        match self {
+            Self::Native(ep) => ep.ctrl_link().stats(),
+            _ => LinkStats::default(),
+        }
+    }
 }

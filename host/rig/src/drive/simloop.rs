@@ -4,7 +4,7 @@
 //! stamps → recorder. Every line passes a seeded [`SimLine`] that injects the world file's
 //! faults on the way; one seed drives everything, so the same seed gives the same run.
 
-use super::endpoint::{InProcessEndpoint, endpoint};
+use super::endpoint::{ExecEndpoint, endpoint_for};
 use super::faults::{FaultClasses, FaultCount};
 use super::pty::PtyLine;
 use super::recorder::RecMsg;
@@ -14,6 +14,7 @@ use crate::plant::assemble::CameraTiming;
 use crate::plant::controller::{Controller, applied_segments, controller};
 use crate::plant::world::RigWorld;
 use crossbeam_channel::Sender;
+use mesopush_executor::shell::controller::ControllerKind;
 use mesopush_executor::{CameraFrame, ExecutorConfig, LogEvent};
 use mesopush_firmware_sim::camera::SimCamera;
 use mesopush_firmware_sim::line::SimLine;
@@ -29,7 +30,7 @@ pub struct SimLoop {
     /// Simulated time, µs (also the executor's clock).
     pub now_us: u64,
     /// The executor.
-    pub exec: InProcessEndpoint,
+    pub exec: ExecEndpoint,
     /// The controller.
     pub node: Controller,
     /// The controller's line.
@@ -61,6 +62,7 @@ impl SimLoop {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         rng: &SimRng,
+        kind: ControllerKind,
         config: ExecutorConfig,
         faults: FaultConfig,
         probe_start_nm: (i32, i32),
@@ -70,7 +72,7 @@ impl SimLoop {
         tx: Sender<RecMsg>,
     ) -> Result<Self, Error> {
         let session = 1 + rng.fork(10).below(1000) as u16;
-        let exec = endpoint(config, session)?;
+        let exec = endpoint_for(kind, config, session)?;
         let node = controller(faults, rng.fork(1), 0, probe_start_nm);
         let cam = SimCamera::new(
             camera.period_us,
@@ -274,11 +276,11 @@ impl SimLoop {
             controller: FaultCount { injected: stage, detected: 0 },
             exec_ctrl_link: FaultCount {
                 injected: line(&self.lines[0]) + line(&self.lines[1]),
-                detected: seen(self.exec.ctrl_link().stats()),
+                detected: seen(self.exec.ctrl_link_stats()),
             },
             host_exec_link: FaultCount {
                 injected: line(&self.lines[2]) + line(&self.lines[3]),
-                detected: seen(self.exec.host_link().stats()) + seen(self.host.link_stats()),
+                detected: seen(self.exec.host_link_stats()) + seen(self.host.link_stats()),
             },
         }
     }

@@ -5,6 +5,7 @@
 use super::faults::FaultClasses;
 use crate::plant::world_file::WorldFile;
 use mesopush_core::geom::Pose;
+pub use mesopush_executor::shell::controller::ControllerKind;
 use mesopush_sim::Plan;
 use mesopush_trial::TrialState;
 use serde::Serialize;
@@ -35,6 +36,9 @@ pub struct TrialSpec {
     pub clock: ClockMode,
     /// Overrides the world's peg start.
     pub peg_start: Option<Pose>,
+    /// The motion controller the executor drives (simulated time: its emulator moves the
+    /// stage).
+    pub controller: ControllerKind,
 }
 
 /// How it went.

@@ -23,6 +23,14 @@ pub fn run_trial(
     progress: &mut dyn FnMut(TrialProgress),
 ) -> Result<TrialReport, Error> {
     let wall = std::time::Instant::now();
+    if spec.clock == ClockMode::Realtime && spec.controller.point_to_point() {
+        return Err(Error::invalid(
+            "controller",
+            "the in-process real-time loop drives the native controller only; run a \
+             point-to-point controller in simulated time, or in real time through the \
+             three-process flow (mesopush-fwsim --controller, mesopush-executor --controller)",
+        ));
+    }
     let mut report = match spec.clock {
         ClockMode::Simulated => run_simulated(spec, out_dir, progress)?,
         ClockMode::Realtime => run_realtime(spec, out_dir, progress)?,
@@ -47,6 +55,7 @@ fn run_simulated(
     let tail = tail_us(&prep.camera);
     let mut lp = SimLoop::new(
         &prep.rng,
+        spec.controller,
         prep.config,
         faults,
         prep.probe_start_nm,

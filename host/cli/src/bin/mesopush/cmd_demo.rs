@@ -8,6 +8,7 @@
 use anyhow::Context;
 use clap::Args;
 use mesopush_rig::drive::figure::{TrialFigure, draw_trial};
+use mesopush_rig::drive::spec::ControllerKind;
 use mesopush_rig::plant::world_check::check_plan_on_stage;
 use mesopush_rig::{ClockMode, TrialReport, TrialSpec, WorldFile, run_trial};
 use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator, replay};
@@ -35,6 +36,11 @@ pub(crate) struct DemoArgs {
     /// Run in real time (≈ 50 s of motion for Table II) instead of simulated time.
     #[arg(long)]
     realtime: bool,
+    /// The motion controller the executor drives, emulated byte for byte from its public
+    /// documentation: `native` (the project's streaming controller) or a point-to-point one
+    /// (`mpc200`); docs/hardware.md.
+    #[arg(long, default_value = "native", value_parser = ControllerKind::parse)]
+    controller: ControllerKind,
     /// Frame images to keep: all, failed (only if not inserted), "every N", none. Poses are
     /// tracked while the trial runs, so the verdict and pose.csv never depend on it.
     #[arg(long, default_value = "all", value_name = "all|failed|every N|none")]
@@ -89,6 +95,7 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<()> {
         seed: args.seed,
         clock: if args.realtime { ClockMode::Realtime } else { ClockMode::Simulated },
         peg_start: None,
+        controller: args.controller,
     };
     let bar = indicatif::ProgressBar::new(1000);
     bar.set_style(
