@@ -12,6 +12,7 @@
 //! Units: the device's own (`units_per_um` of [`Protocol`], per axis the same); every
 //! conversion between them and the core's nm is in [`scale`].
 
+pub mod axes;
 pub mod driver;
 pub mod estimate;
 pub mod mpc200;
