@@ -15,6 +15,7 @@
 pub mod axes;
 pub mod driver;
 pub mod estimate;
+pub mod mp285;
 pub mod mpc200;
 pub mod scale;
 
