@@ -18,6 +18,7 @@ pub mod estimate;
 pub mod mp285;
 pub mod mpc200;
 pub mod scale;
+pub mod scientifica;
 
 use heapless::Vec;
 
