@@ -12,15 +12,20 @@
 //! Units: the device's own (`units_per_um` of [`Protocol`], per axis the same); every
 //! conversion between them and the core's nm is in [`scale`].
 
+pub mod axes;
 pub mod driver;
 pub mod estimate;
+pub mod mp285;
 pub mod mpc200;
 pub mod scale;
+pub mod scientifica;
+pub mod sensapex;
 
 use heapless::Vec;
 
-/// Longest chunk of bytes one request writes at once.
-pub const CHUNK_LEN: usize = 48;
+/// Longest chunk of bytes one request writes at once (a Sensapex move with per-axis speeds
+/// is one 60-byte datagram).
+pub const CHUNK_LEN: usize = 64;
 /// Most chunks one request writes.
 pub const SCRIPT_CHUNKS: usize = 3;
 

@@ -22,7 +22,7 @@
 //! speeds disagree up to 4× at low V), the exact pause position, whether `03` also stops an
 //! `M` move (only `S` is used).
 
-use super::{Decoded, MoveReply, Protocol, Reply, Request, Script, push_chunk};
+use super::{Decoded, MoveReply, Protocol, Reply, Request, Script, axes, push_chunk};
 use heapless::Vec;
 
 /// µsteps per µm.
@@ -51,14 +51,12 @@ impl Mpc200 {
     /// to the faster: a quasi-static push does not depend on its speed, while a slower
     /// controller falls behind the plan's schedule), clamped to 0..=15.
     pub fn speed_byte(from: [i32; 3], target: [i32; 3], speed_nm_s: u32) -> u8 {
-        let (max_axis, norm) = axis_lengths(from, target);
-        if norm == 0 {
+        if axes::lengths(from, target).1 == 0 {
             return 0;
         }
-        let axis_nm_s = u128::from(speed_nm_s) * u128::from(max_axis) / u128::from(norm);
-        let step = u128::from(SPEED_STEP_NM_S);
-        let settings = (axis_nm_s + step / 2) / step; // nearest multiple of the step
-        settings.clamp(1, 16) as u8 - 1
+        let axis_nm_s = axes::fastest_axis_nm_s(from, target, speed_nm_s);
+        let settings = (axis_nm_s + SPEED_STEP_NM_S / 2) / SPEED_STEP_NM_S; // nearest multiple
+        u8::try_from(settings.clamp(1, 16) - 1).unwrap_or(15)
     }
 
     fn decode_position(&mut self, bytes: &[u8]) -> Decoded {
@@ -85,14 +83,6 @@ impl Mpc200 {
     }
 }
 
-/// (Longest axis, line length) of `from → target`, units.
-fn axis_lengths(from: [i32; 3], target: [i32; 3]) -> (u64, u64) {
-    let d: [u64; 3] =
-        core::array::from_fn(|k| (i64::from(target[k]) - i64::from(from[k])).unsigned_abs());
-    let sq: u128 = d.iter().map(|&v| u128::from(v) * u128::from(v)).sum();
-    (d.into_iter().max().unwrap_or(0), sq.isqrt() as u64)
-}
-
 impl Protocol for Mpc200 {
     const NAME: &'static str = "Sutter MPC-200";
 
@@ -117,13 +107,8 @@ impl Protocol for Mpc200 {
     }
 
     fn achieved_speed_nm_s(&self, from: [i32; 3], target: [i32; 3], speed_nm_s: u32) -> u32 {
-        let (max_axis, norm) = axis_lengths(from, target);
         let v = Self::speed_byte(from, target, speed_nm_s);
-        let axis_nm_s = SPEED_STEP_NM_S * (u64::from(v) + 1);
-        if max_axis == 0 {
-            return axis_nm_s as u32;
-        }
-        (u128::from(axis_nm_s) * u128::from(norm) / u128::from(max_axis)) as u32
+        axes::line_nm_s(from, target, SPEED_STEP_NM_S * (u64::from(v) + 1))
     }
 
     fn travel_units(&self) -> (i32, i32) {

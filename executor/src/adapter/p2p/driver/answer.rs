@@ -12,6 +12,11 @@ impl<P: Protocol, const Q: usize> PointToPointAdapter<P, Q> {
         self.alive = true;
         match (request, reply) {
             (_, Reply::Garbled) => self.stats.unreadable += 1, // asked again next poll
+            (Request::Setup(_), Reply::DeviceError(_)) => {
+                // Not done (an unsupported card, an unreadable scale): asked again after
+                // `idle_poll_us`; until then no position is read and nothing moves.
+                self.next_poll_us = now_us + self.settings.idle_poll_us;
+            }
             (Request::Setup(_), _) => {
                 self.setup_done += 1;
                 if let Reply::Position(p) = reply {
@@ -43,6 +48,8 @@ impl<P: Protocol, const Q: usize> PointToPointAdapter<P, Q> {
             }
             (Request::Stop, Reply::Accepted | Reply::Arrived) => {
                 self.stop_wanted = false;
+                // Where it stopped is read again (also where idle polls are unsafe).
+                self.measured = None;
                 if self.state == CtrlState::Moving {
                     self.state = CtrlState::Stopped;
                 }

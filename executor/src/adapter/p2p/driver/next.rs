@@ -1,6 +1,7 @@
 //! Which request goes out next, and starting a move.
 //!
-//! Priority: a wanted stop; the protocol's set-up; a first position; the check of a move
+//! Priority: a wanted stop; the protocol's set-up (a failed step is asked again after
+//! `idle_poll_us`); a first position (again after a stop); the check of a move
 //! that ended; the poll of a move that answered at once; the next queued move once its
 //! start time has come; the idle position poll.
 
@@ -16,7 +17,10 @@ impl<P: Protocol, const Q: usize> PointToPointAdapter<P, Q> {
             return self.start(now_us, Request::Stop);
         }
         if self.setup_done < self.proto.setup_steps() {
-            return self.start(now_us, Request::Setup(self.setup_done));
+            if now_us >= self.next_poll_us {
+                self.start(now_us, Request::Setup(self.setup_done));
+            }
+            return;
         }
         if self.measured.is_none() || !self.alive {
             if now_us >= self.next_poll_us {
