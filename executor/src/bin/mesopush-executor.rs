@@ -12,8 +12,12 @@ use clap::{Args as ClapArgs, Parser, Subcommand};
 use crossbeam_channel::{Receiver, bounded};
 use mesopush_executor::adapter::ControllerAdapter;
 use mesopush_executor::adapter::native::NativeAdapter;
+use mesopush_executor::adapter::p2p::Protocol;
 use mesopush_executor::adapter::p2p::driver::{P2pSettings, PointToPointAdapter};
+use mesopush_executor::adapter::p2p::mp285::Mp285;
 use mesopush_executor::adapter::p2p::mpc200::Mpc200;
+use mesopush_executor::adapter::p2p::scientifica::Scientifica;
+use mesopush_executor::adapter::p2p::sensapex::{Sensapex, SensapexSettings};
 use mesopush_executor::bench::{BenchOptions, run_bench};
 use mesopush_executor::clock::MonotonicClock;
 use mesopush_executor::endpoint::Endpoint;
@@ -135,7 +139,8 @@ struct Args {
     #[arg(long)]
     ctrl_port: String,
     /// The motion controller: `native` (the project's streaming controller, e.g.
-    /// `mesopush-fwsim`) or a point-to-point one (`mpc200`); docs/hardware.md.
+    /// `mesopush-fwsim`) or a point-to-point one: `mpc200`, `mp285`, `scientifica`,
+    /// `sensapex` (with `--ctrl-port udp:HOST:55555`); docs/hardware.md.
     #[arg(long, default_value = "native")]
     controller: String,
     /// Baud rate of the host line (and of a native controller's).
@@ -406,12 +411,25 @@ fn run(args: Args) -> Result<()> {
             let adapter = NativeAdapter::<W>::new(LinkConfig::DEFAULT, session);
             run_on(&args, Endpoint::with_adapter(core, LinkConfig::DEFAULT, session, adapter), ctrl)
         }
-        ControllerKind::Mpc200 => {
-            let adapter =
-                PointToPointAdapter::<Mpc200, LA>::new(Mpc200::new(), P2pSettings::DEFAULT);
-            run_on(&args, Endpoint::with_adapter(core, LinkConfig::DEFAULT, session, adapter), ctrl)
+        ControllerKind::Mpc200 => run_p2p(&args, core, session, ctrl, Mpc200::new()),
+        ControllerKind::Mp285 => run_p2p(&args, core, session, ctrl, Mp285::new()),
+        ControllerKind::Scientifica => run_p2p(&args, core, session, ctrl, Scientifica::new()),
+        ControllerKind::Sensapex => {
+            run_p2p(&args, core, session, ctrl, Sensapex::new(SensapexSettings::DEFAULT))
         }
     }
+}
+
+/// The loop with a point-to-point controller speaking `proto`.
+fn run_p2p<P: Protocol>(
+    args: &Args,
+    core: Executor<FileStore, CAP, LA>,
+    session: u16,
+    ctrl: ControllerLine,
+    proto: P,
+) -> Result<()> {
+    let adapter = PointToPointAdapter::<P, LA>::new(proto, P2pSettings::DEFAULT);
+    run_on(args, Endpoint::with_adapter(core, LinkConfig::DEFAULT, session, adapter), ctrl)
 }
 
 /// The loop on `ctrl` with the controller behind `endpoint`'s adapter.

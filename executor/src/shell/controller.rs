@@ -17,11 +17,28 @@ pub enum ControllerKind {
     Native,
     /// Sutter MPC-200 / MPC-325 (binary serial, 128000 Bd).
     Mpc200,
+    /// Sutter MP-285 (binary serial with CR, 9600 Bd).
+    Mp285,
+    /// Scientifica LinLab / PatchStar motion cards (ASCII serial, 9600 Bd by default).
+    Scientifica,
+    /// Sensapex uMp (SMCP1 datagrams over UDP, port 55555).
+    Sensapex,
 }
 
 impl ControllerKind {
     /// Every kind, by its command-line name.
-    pub const ALL: [(&'static str, Self); 2] = [("native", Self::Native), ("mpc200", Self::Mpc200)];
+    pub const ALL: [(&'static str, Self); 5] = [
+        ("native", Self::Native),
+        ("mpc200", Self::Mpc200),
+        ("mp285", Self::Mp285),
+        ("scientifica", Self::Scientifica),
+        ("sensapex", Self::Sensapex),
+    ];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        Self::ALL.iter().find(|(_, k)| *k == self).map_or("native", |(n, _)| n)
+    }
 
     /// The kind named `name`, or a message listing the names allowed.
     pub fn parse(name: &str) -> Result<Self, String> {
@@ -36,6 +53,8 @@ impl ControllerKind {
         match self {
             Self::Native => 1_000_000,
             Self::Mpc200 => 128_000,
+            Self::Mp285 | Self::Scientifica => 9_600,
+            Self::Sensapex => 0, // a UDP socket: no baud rate
         }
     }
 
@@ -111,7 +130,7 @@ mod tests {
     fn names_parse_and_unknown_ones_list_the_allowed() {
         assert_eq!(ControllerKind::parse("mpc200"), Ok(ControllerKind::Mpc200));
         let e = ControllerKind::parse("mc2000").unwrap_err();
-        assert!(e.contains("\"mc2000\"") && e.contains("native, mpc200"), "{e}");
+        assert!(e.contains("\"mc2000\"") && e.contains("native, mpc200, mp285"), "{e}");
     }
 
     #[test]

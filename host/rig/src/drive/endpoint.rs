@@ -7,8 +7,12 @@
 
 use crate::Error;
 use crate::plant::controller::EW;
+use mesopush_executor::adapter::p2p::Protocol;
 use mesopush_executor::adapter::p2p::driver::{P2pSettings, PointToPointAdapter};
+use mesopush_executor::adapter::p2p::mp285::Mp285;
 use mesopush_executor::adapter::p2p::mpc200::Mpc200;
+use mesopush_executor::adapter::p2p::scientifica::Scientifica;
+use mesopush_executor::adapter::p2p::sensapex::{Sensapex, SensapexSettings};
 use mesopush_executor::endpoint::Endpoint;
 use mesopush_executor::shell::controller::ControllerKind;
 use mesopush_executor::{ExecError, Executor, ExecutorConfig, LogEvent, MemStore, Segmenting};
@@ -32,6 +36,12 @@ pub enum ExecEndpoint {
     Native(Box<InProcessEndpoint>),
     /// A Sutter MPC-200.
     Mpc200(Box<P2pEndpoint<Mpc200>>),
+    /// A Sutter MP-285.
+    Mp285(Box<P2pEndpoint<Mp285>>),
+    /// A Scientifica motion card.
+    Scientifica(Box<P2pEndpoint<Scientifica>>),
+    /// A Sensapex uMp.
+    Sensapex(Box<P2pEndpoint<Sensapex>>),
 }
 
 /// An executor with `config` whose links use the session id `session`.
@@ -53,15 +63,27 @@ pub fn endpoint_for(
     if kind.point_to_point() {
         config.segmenting = Segmenting::PlanSteps;
     }
-    let link = LinkConfig::DEFAULT;
     Ok(match kind {
         ControllerKind::Native => ExecEndpoint::Native(Box::new(endpoint(config, session)?)),
-        ControllerKind::Mpc200 => {
-            let adapter = PointToPointAdapter::new(Mpc200::new(), P2pSettings::DEFAULT);
-            let ep = Endpoint::with_adapter(core(config)?, link, session, adapter);
-            ExecEndpoint::Mpc200(Box::new(ep))
+        ControllerKind::Mpc200 => ExecEndpoint::Mpc200(p2p(config, session, Mpc200::new())?),
+        ControllerKind::Mp285 => ExecEndpoint::Mp285(p2p(config, session, Mp285::new())?),
+        ControllerKind::Scientifica => {
+            ExecEndpoint::Scientifica(p2p(config, session, Scientifica::new())?)
+        }
+        ControllerKind::Sensapex => {
+            let proto = Sensapex::new(SensapexSettings::DEFAULT);
+            ExecEndpoint::Sensapex(p2p(config, session, proto)?)
         }
     })
+}
+
+fn p2p<P: Protocol>(
+    config: ExecutorConfig,
+    session: u16,
+    proto: P,
+) -> Result<Box<P2pEndpoint<P>>, Error> {
+    let adapter = PointToPointAdapter::new(proto, P2pSettings::DEFAULT);
+    Ok(Box::new(Endpoint::with_adapter(core(config)?, LinkConfig::DEFAULT, session, adapter)))
 }
 
 /// The same call on whichever endpoint it is.
@@ -70,6 +92,9 @@ macro_rules! each {
         match $self {
             ExecEndpoint::Native($ep) => $body,
             ExecEndpoint::Mpc200($ep) => $body,
+            ExecEndpoint::Mp285($ep) => $body,
+            ExecEndpoint::Scientifica($ep) => $body,
+            ExecEndpoint::Sensapex($ep) => $body,
         }
     };
 }
