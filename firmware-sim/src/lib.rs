@@ -10,6 +10,9 @@
 //!   trait the host implements with its simulator and renderer.
 //! - [`config`]: plain-data [`CtrlConfig`] and [`FaultConfig`]; [`rng`]: the one seeded
 //!   random source. Same seed → identical event sequence.
+//! - [`vendor`]: byte-exact emulators of commercial micromanipulator controllers (Sutter
+//!   MPC-200 and MP-285, Scientifica, Sensapex uMp), the test peers of the executor's
+//!   vendor adapters, behind the [`vendor::VendorController`] trait.
 //!
 //! May depend on: `mesopush-protocol` only. The physical world is reached through the
 //! [`World`] trait, which the host's rig implements; it never depends on host crates or the
@@ -25,6 +28,7 @@ pub mod line;
 pub mod node;
 pub mod rng;
 pub mod stage;
+pub mod vendor;
 pub mod world;
 
 pub use config::{CtrlConfig, FaultConfig};
