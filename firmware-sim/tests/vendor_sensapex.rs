@@ -219,3 +219,17 @@ fn ping_echoes_take_step_acks_only_and_parameters_answer() {
     let d = datagrams(&mut c, 10_000_000);
     assert_eq!((be32(&d[1], 20), be32(&d[1], 24)), (0x105, 4), "AXIS_COUNT");
 }
+
+#[test]
+fn after_a_stall_the_next_move_starts_from_the_sensed_position() {
+    let mut c = ump([0; 4]);
+    c.set_stalled(0, true);
+    c.receive(0, &GOTO);
+    datagrams(&mut c, 100_000_000);
+    c.set_stalled(100_000_000, false);
+    assert_eq!(c.probe_nm(), (0, 0), "never moved");
+    let undef = i32::MAX;
+    c.receive(100_000_000, &request(20, 0x51, 33, &[1000, undef, undef, undef, 100, 1]));
+    datagrams(&mut c, 200_000_000);
+    assert_eq!(c.probe_nm(), (1000, 0));
+}
