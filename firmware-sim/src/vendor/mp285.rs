@@ -13,34 +13,34 @@
 //!   = 25 at offset 24, STEP_MUL = 40 at 26, XSPEED at 28, VERSION at 30, FLAGS bit 5 set in
 //!   absolute mode, FLAGS_2 bit 2 set in fine resolution; other fields 0);
 //! - `m x y z 0D` → `0D` at the END of the move (straight line, the speed on the fastest
-//!   axis [inferred]); in relative mode (`b`) the values are deltas;
+//!   axis, inferred); in relative mode (`b`) the values are deltas;
 //! - `V lo hi 0D` → `0D`: bit 15 = fine (50 µsteps per step) / coarse (10); bits 0–14 µm/s,
 //!   clamped to 1..=1310 (fine) or 1..=6550 (coarse) (acq4's limits). Little-endian, as
 //!   acq4, ScanImage and Theo write it (Micro-Manager's high-byte-first looks like a bug).
-//!   Coarse resolution rounds move targets to 5 µsteps (0.2 µm) [inferred];
+//!   Coarse resolution rounds move targets to 5 µsteps (0.2 µm) (inferred);
 //! - `a`/`b`/`o`/`n`/`e` + `0D` → `0D` (absolute / relative / set origin here / refresh /
 //!   continue); `r 0D` (soft reset) → no reply, the move is dropped, absolute mode, and
-//!   input is ignored for [`RESET_QUIET_US`] (ScanImage waits 0.2 s) [inferred];
+//!   input is ignored for [`RESET_QUIET_US`] (ScanImage waits 0.2 s) (inferred);
 //! - `03` during a move stops it dead; the move's reply is the error packet `2A 0D` ('*':
 //!   "move interrupted … the value normally returned is '*'", MM's Sutter table; acq4 sees
-//!   bit 8 in it) and no other `0D` follows [choice]. `03` when idle: no reply [inferred];
+//!   bit 8 in it) and no other `0D` follows (choice). `03` when idle: no reply (inferred);
 //! - errors as one ASCII code + `0D`: `32` ('2', the byte where the CR belongs is not `0D`),
 //!   `34` ('4', unknown command letter, answered at its CR). SP over-run and frame errors
 //!   cannot happen on an emulated line;
 //! - a `0A` or `0D` between commands is ignored (Micro-Manager ends lines with `0D 0A`
-//!   and stops with `03 0D`); while a move runs every byte but `03` is discarded [inferred];
+//!   and stops with `03 0D`); while a move runs every byte but `03` is discarded (inferred);
 //! - **the knob hang:** with [`Mp285::set_knob_in_use`] on, a `c` query hangs the
 //!   controller (acq4: "will very likely crash"): the move stops, nothing is answered and
 //!   no byte leaves until [`Mp285::power_cycle`].
 //!
-//! Travel: ±312500 µsteps (±12.5 mm) about the power-on position [inferred from Theo's
-//! bounds]; targets beyond are clamped [choice]. Not verifiable here: the acceleration
+//! Travel: ±312500 µsteps (±12.5 mm) about the power-on position (inferred from Theo's
+//! bounds); targets beyond are clamped (choice). Not verifiable here: the acceleration
 //! ([`DEFAULT_ACCEL_USTEPS_S2`] is a choice), the real coarse/fine motion, the meaning of
 //! STEP_MUL, what follows an error packet, and whether `03` alone or `03 0D` is needed.
 
+use super::controller::{VendorController, steps_to_nm, to_i32};
 use super::motion::{AxisLimits, Path, Stage};
 use super::serial::SerialTx;
-use super::{VendorController, steps_to_nm, to_i32};
 use crate::error::SimError;
 
 /// Default link rate, bits/s.
@@ -59,7 +59,7 @@ pub const COARSE_MAX_UM_S: u16 = 6550;
 pub const COARSE_QUANTUM_USTEPS: i64 = 5;
 /// Travel either side of the power-on position, µsteps.
 pub const TRAVEL_USTEPS: i64 = 312_500;
-/// Acceleration, µsteps/s² (10 mm/s²) [inferred].
+/// Acceleration, µsteps/s² (10 mm/s²) (inferred).
 pub const DEFAULT_ACCEL_USTEPS_S2: f64 = 250_000.0;
 /// Input ignored after a soft reset or power cycle, µs.
 pub const RESET_QUIET_US: u64 = 200_000;
@@ -169,7 +169,7 @@ impl Mp285 {
 
     /// Power-cycles at `now_us`: clears a hang, stops motion, drops pending replies,
     /// restores absolute mode and the power-on velocity; input is ignored for
-    /// [`RESET_QUIET_US`]. Positions and the origin are kept [inferred].
+    /// [`RESET_QUIET_US`]. Positions and the origin are kept (inferred).
     pub fn power_cycle(&mut self, now_us: u64) {
         self.advance(now_us);
         self.hung = false;

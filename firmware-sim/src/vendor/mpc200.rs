@@ -12,18 +12,18 @@
 //!   drive not connected (firmware ≥ 1.06; older: `0D`); `F`/`O`/`L m` → `0D`.
 //! - `M x y z`: fast move, every axis on its own profile at [`Mpc200Settings::fast_speed_usteps_s`]
 //!   (the manual's "stereotypic multi-axis path"; the exact path is not documented, so the
-//!   axes move independently [inferred]); `0D` at the END of the move.
+//!   axes move independently, inferred); `0D` at the END of the move.
 //! - `S V x y z`: straight line at 81.25·(V+1) µm/s = 1300·(V+1) µsteps/s on the fastest
 //!   moving axis (manual and pyIVLS; acq4's measured table disagrees at low V; the manual is
-//!   followed). V > 15 is taken as 15 [inferred]. `0D` at the end of the move.
+//!   followed). V > 15 is taken as 15 (inferred). `0D` at the end of the move.
 //! - The 'S' pause: the packet is accepted if at least [`S_PAUSE_US`] (the manual's 30 ms)
 //!   passed between `53` and V (acq4) OR between V and the first position byte (manual,
 //!   pyIVLS). Otherwise the controller **crashes** ("MPC200 crashes if the entire packet is
 //!   written at once"): it goes silent, ignores all input and never replies, until
-//!   [`Mpc200::power_cycle`] [choice].
+//!   [`Mpc200::power_cycle`] (choice).
 //! - A move shorter than 16 µsteps on every axis is ignored and NO `0D` is sent.
 //! - Targets outside 0..=400000 µsteps are clamped to the travel on each axis and the move
-//!   runs to the clamp, with its `0D` [choice; the manual only says never to send them].
+//!   runs to the clamp, with its `0D` (choice; the manual only says never to send them).
 //! - While a move runs every byte but `03` is discarded (no position query during a move).
 //!   `03` stops the move dead and replies `0D` at once (for 'M' too, per the MPC-325 manual;
 //!   the TRIO manual says 'S' only); `03` when idle also replies `0D`.
@@ -31,7 +31,7 @@
 //!   [`Mpc200Settings::stray_i_chance`], drawn from a [`SimRng`] seeded by `seed`.
 //! - `N` (calibrate, firmware > 1.03) drives to the true origin and zeroes the counter
 //!   (clearing steps lost to a stall); `H`/`Y` drive to the home/work positions. These
-//!   reply `0D` at the end of their motion, whatever their length [inferred].
+//!   reply `0D` at the end of their motion, whatever their length (inferred).
 //! - Up to four drives, each with its own stage; moves and `C` act on the active drive.
 //!   Input is ignored for the first second after power-on ([`BOOT_US`]).
 //!
@@ -40,9 +40,11 @@
 //! behaves as with streaming off), the "V = 13..15 sometimes fail to move" report, junk
 //! after an interrupt beyond the stray 'I', and the real crash behaviour.
 
+use super::controller::{VendorController, steps_to_nm, to_i32};
 use super::motion::{AxisLimits, Path, Stage};
+pub use super::mpc200_rx::S_PAUSE_US;
+use super::mpc200_rx::{Mpc200Rx, Packet};
 use super::serial::SerialTx;
-use super::{VendorController, steps_to_nm, to_i32};
 use crate::error::SimError;
 use crate::rng::SimRng;
 
@@ -58,10 +60,8 @@ pub const MIN_MOVE_USTEPS: i64 = 16;
 pub const SPEED_STEP_USTEPS_S: f64 = 1300.0;
 /// 'M' speed: acq4's measured 4.65 mm/s, µsteps/s.
 pub const FAST_SPEED_USTEPS_S: f64 = 74_400.0;
-/// Acceleration, µsteps/s² (10 mm/s²) [inferred: not documented].
+/// Acceleration, µsteps/s² (10 mm/s²) (inferred: not documented).
 pub const DEFAULT_ACCEL_USTEPS_S2: f64 = 160_000.0;
-/// Pause the 'S' packet needs (after `53` or after V), µs.
-pub const S_PAUSE_US: u64 = 30_000;
 /// Time from power-on to accepting input, µs.
 pub const BOOT_US: u64 = 1_000_000;
 const CR: u8 = 0x0D;
@@ -127,16 +127,6 @@ impl Mpc200Settings {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Rx {
-    Idle,
-    Drive,
-    Roe,
-    Fast { buf: [u8; 12], len: usize },
-    SlowV { t_cmd: u64 },
-    Slow { v: u8, t_cmd: u64, t_v: u64, buf: [u8; 12], len: usize },
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Power {
     Booting { until_us: u64 },
     Ready,
@@ -164,13 +154,12 @@ pub struct Mpc200 {
     cfg: Mpc200Settings,
     now_us: u64,
     power: Power,
-    rx: Rx,
+    rx: Mpc200Rx,
     tx: SerialTx,
     stages: [Stage<3>; 4],
     active: usize,
     job: Option<Job>,
     interrupted: bool,
-    streaming: bool,
     rng: SimRng,
 }
 
@@ -182,13 +171,12 @@ impl Mpc200 {
             cfg,
             now_us,
             power: Power::Ready,
-            rx: Rx::Idle,
+            rx: Mpc200Rx::default(),
             tx: SerialTx::new(BAUD),
             stages: core::array::from_fn(|_| Stage::new(cfg.start_usteps)),
             active: 0,
             job: None,
             interrupted: false,
-            streaming: false,
             rng: SimRng::new(cfg.seed),
         };
         c.power_cycle(now_us);
@@ -203,10 +191,9 @@ impl Mpc200 {
             s.stop(self.now_us);
         }
         self.tx.clear();
-        self.rx = Rx::Idle;
+        self.rx.reset();
         self.job = None;
         self.interrupted = false;
-        self.streaming = false;
         self.active = self.cfg.drives.iter().position(|&d| d).unwrap_or(0);
         self.power = Power::Booting { until_us: self.now_us.saturating_add(BOOT_US) };
     }
@@ -253,79 +240,52 @@ impl Mpc200 {
             }
             return;
         }
-        let now = self.now_us;
-        self.rx = match self.rx {
-            Rx::Idle => self.command(b),
-            Rx::Drive => self.select(b),
-            Rx::Roe => self.reply(&[CR]),
-            Rx::Fast { mut buf, len } => {
-                buf[len] = b;
-                if len + 1 < 12 {
-                    Rx::Fast { buf, len: len + 1 }
-                } else {
-                    let lim = self.fast_limits();
-                    self.start_move(decode(&buf), Path::PerAxis, lim, Kind::Packet)
-                }
+        let Some(packet) = self.rx.push(self.now_us, b) else { return };
+        let fast = self.fast_limits();
+        match packet {
+            Packet::Unpaced => self.power = Power::Crashed,
+            Packet::Select(d) => self.select(d),
+            Packet::Roe(_) => self.reply(&[CR]),
+            Packet::Fast(to) => self.start_move(to, Path::PerAxis, fast, Kind::Packet),
+            Packet::Straight { v, xyz } => {
+                let speed = SPEED_STEP_USTEPS_S * f64::from(v.min(15) + 1);
+                let lim = [AxisLimits { speed_steps_s: speed, ..fast[0] }; 3];
+                self.start_move(xyz, Path::Linear, lim, Kind::Packet);
             }
-            Rx::SlowV { t_cmd } => Rx::Slow { v: b, t_cmd, t_v: now, buf: [0; 12], len: 0 },
-            Rx::Slow { v, t_cmd, t_v, mut buf, len } => {
-                if len == 0 && t_v - t_cmd < S_PAUSE_US && now - t_v < S_PAUSE_US {
-                    self.power = Power::Crashed;
-                    return;
-                }
-                buf[len] = b;
-                if len + 1 < 12 {
-                    Rx::Slow { v, t_cmd, t_v, buf, len: len + 1 }
-                } else {
-                    let speed = SPEED_STEP_USTEPS_S * f64::from(v.min(15) + 1);
-                    let lim = [AxisLimits { speed_steps_s: speed, ..self.fast_limits()[0] }; 3];
-                    self.start_move(decode(&buf), Path::Linear, lim, Kind::Packet)
-                }
-            }
-        };
+            Packet::Simple(c) => self.command(c),
+        }
     }
 
-    fn command(&mut self, b: u8) -> Rx {
+    fn command(&mut self, b: u8) {
+        let fast = self.fast_limits();
         match b {
             b'C' => self.reply_position(),
-            b'I' => Rx::Drive,
-            b'L' => Rx::Roe,
-            b'M' => Rx::Fast { buf: [0; 12], len: 0 },
-            b'S' => Rx::SlowV { t_cmd: self.now_us },
             b'U' => {
-                let d = self.cfg.drives;
-                let n = d.iter().filter(|&&c| c).count() as u8;
-                self.reply(&[n, u8::from(d[0]), u8::from(d[1]), u8::from(d[2]), u8::from(d[3]), CR])
+                let d = self.cfg.drives.map(u8::from);
+                let n = d.iter().sum();
+                self.reply(&[n, d[0], d[1], d[2], d[3], CR]);
             }
             b'K' => {
                 let (maj, min) = self.cfg.firmware;
                 let d = self.active as u8 + 1;
                 if maj >= 3 {
-                    self.reply(&[d, bcd(min), bcd(maj), CR])
+                    self.reply(&[d, bcd(min), bcd(maj), CR]);
                 } else {
-                    self.reply(&[d, CR])
+                    self.reply(&[d, CR]);
                 }
             }
-            0x03 | b'F' | b'O' => {
-                self.streaming = b == b'O';
-                self.reply(&[CR])
-            }
+            0x03 | b'F' | b'O' => self.reply(&[CR]),
             b'N' => {
-                let s = &self.stages[self.active];
-                let to = core::array::from_fn(|i| -s.slip()[i]);
-                self.start_move(to, Path::PerAxis, self.fast_limits(), Kind::Calibrate)
+                let slip = self.stages[self.active].slip();
+                self.start_move(slip.map(|s| -s), Path::PerAxis, fast, Kind::Calibrate);
             }
-            b'H' => {
-                self.start_move(self.cfg.home_usteps, Path::PerAxis, self.fast_limits(), Kind::Goto)
-            }
-            b'Y' => {
-                self.start_move(self.cfg.work_usteps, Path::PerAxis, self.fast_limits(), Kind::Goto)
-            }
-            _ => Rx::Idle,
+            b'H' => self.start_move(self.cfg.home_usteps, Path::PerAxis, fast, Kind::Goto),
+            b'Y' => self.start_move(self.cfg.work_usteps, Path::PerAxis, fast, Kind::Goto),
+            _ => {}
         }
     }
 
-    fn select(&mut self, d: u8) -> Rx {
+    fn select(&mut self, d: u8) {
         let connected = (1..=4).contains(&d) && self.cfg.drives[usize::from(d) - 1];
         if self.cfg.firmware < (1, 6) {
             if connected {
@@ -335,9 +295,9 @@ impl Mpc200 {
         }
         if connected {
             self.active = usize::from(d) - 1;
-            self.reply(&[d, CR])
+            self.reply(&[d, CR]);
         } else {
-            self.reply(&[b'E', CR])
+            self.reply(&[b'E', CR]);
         }
     }
 
@@ -350,18 +310,17 @@ impl Mpc200 {
     }
 
     /// Starts a move of the active drive (see [`Kind`] for the rules that apply).
-    fn start_move(&mut self, to: [i64; 3], path: Path, lim: [AxisLimits; 3], kind: Kind) -> Rx {
+    fn start_move(&mut self, to: [i64; 3], path: Path, lim: [AxisLimits; 3], kind: Kind) {
         let calibrate = kind == Kind::Calibrate;
         let to = if calibrate { to } else { to.map(|v| v.clamp(0, TRAVEL_USTEPS)) };
         let stage = &mut self.stages[self.active];
         let cur = stage.counter(self.now_us);
         if kind == Kind::Packet && (0..3).all(|i| (to[i] - cur[i]).abs() < MIN_MOVE_USTEPS) {
-            return Rx::Idle;
+            return;
         }
         stage.start(self.now_us, to, path, lim);
         self.job = Some(Job { drive: self.active, calibrate });
         self.advance(self.now_us);
-        Rx::Idle
     }
 
     fn interrupt(&mut self) {
@@ -372,7 +331,7 @@ impl Mpc200 {
         self.tx.send(self.now_us, &[CR]);
     }
 
-    fn reply_position(&mut self) -> Rx {
+    fn reply_position(&mut self) {
         let c = self.stages[self.active].counter(self.now_us);
         let mut out = [0u8; 15];
         let mut n = 0;
@@ -385,23 +344,16 @@ impl Mpc200 {
             out[n + 1 + 4 * i..n + 5 + 4 * i].copy_from_slice(&to_i32(*v).to_le_bytes());
         }
         out[n + 13] = CR;
-        self.reply(&out[..n + 14])
+        self.reply(&out[..n + 14]);
     }
 
-    fn reply(&mut self, bytes: &[u8]) -> Rx {
+    fn reply(&mut self, bytes: &[u8]) {
         self.tx.send(self.now_us, bytes);
-        Rx::Idle
     }
 
     fn probe(&self) -> [i64; 3] {
         self.stages[usize::from(self.cfg.probe_drive) - 1].true_pos(self.now_us)
     }
-}
-
-fn decode(buf: &[u8; 12]) -> [i64; 3] {
-    core::array::from_fn(|i| {
-        i64::from(i32::from_le_bytes([buf[4 * i], buf[4 * i + 1], buf[4 * i + 2], buf[4 * i + 3]]))
-    })
 }
 
 fn bcd(v: u8) -> u8 {

@@ -11,13 +11,13 @@
 //! ending `\r`; 9600 or 38400 baud 8N1 with byte timing; no processing latency):
 //! - `scientifica` → `Y519`; `VER` → `2.13` (v2) / `3.13` (v3); `TYPE` → `1.05` / `3.05`;
 //!   `DESC` → `PatchStar`; `BAUD 96`/`BAUD 38` switch the reply rate, no reply.
-//! - `POS` (both cards) / `P` (v3 only; a v2 card answers `E,1` [inferred]) → `x\ty\tz` in
+//! - `POS` (both cards) / `P` (v3 only; a v2 card answers `E,1`, inferred) → `x\ty\tz` in
 //!   ticks: 0.1 µm (v2) or 0.01 µm (v3) at the default axis scale; `PX`/`PY`/`PZ` → one
 //!   value; `PX n` and `ZERO` set counters (refused with `E,3` while the stage moves).
 //! - `ABS x y z` / `ABS x y` / `ABSZ z` / `REL dx dy dz` / `REL dx dy` → `A` at once and the
-//!   move runs on (straight line, TOP on the fastest axis, ACC) [line: inferred]; `E,3`
+//!   move runs on (straight line, TOP on the fastest axis, ACC) (line: inferred); `E,3`
 //!   while `S` is non-zero. Targets beyond the travel are clamped and LIMITS shows it.
-//! - `S` → `0` idle, else the moving axes as bits x=1, y=2, z=4 [bits: inferred]. **Early
+//! - `S` → `0` idle, else the moving axes as bits x=1, y=2, z=4 (bits: inferred). **Early
 //!   finish:** `S` reads 0 from [`ScientificaSettings::early_done_us`] before the end of
 //!   the move while the stage still travels its last ticks; a new move is accepted then.
 //!   Optionally the stage also stops [`ScientificaSettings::short_stop_ticks`] short of
@@ -27,22 +27,22 @@
 //!   y_low 4, …; acq4 reads decimal, ScanImage hex: decimal chosen).
 //! - `TOP`/`FIRST`/`ACC` get/set. v2: raw values, speed (µm/s) = TOP / (2·|UU|), accel
 //!   (µm/s²) = ACC·250/|UU|, TOP/FIRST 1000..=50000, ACC 10..=1000. v3: µm/s and µm/s²
-//!   (TOP/FIRST 1..=10000, ACC 1..=100000 [ranges inferred]). The physical speed uses the
+//!   (TOP/FIRST 1..=10000, ACC 1..=100000 (ranges inferred)). The physical speed uses the
 //!   default scale (the mechanics), so a changed scale does not change the motion.
 //! - `UUX` … (v2) / `USTEP X` … (v3) get/set the axis scale; reported ticks scale by
 //!   default/current (acq4: the scale makes the position unit). The other card's form is
 //!   unknown to a card (`E,1`).
-//! - Errors [numbers inferred]: `E,1` unknown command, `E,2` bad or missing argument, `E,3`
+//! - Errors (numbers inferred): `E,1` unknown command, `E,2` bad or missing argument, `E,3`
 //!   refused while moving. A line longer than 64 bytes is answered `E,1` at its `\r`.
 //!
 //! Not verifiable without a device: the real error numbers, the `S` bit meaning, the `VER`
 //! format beyond `float()`, the travel (±10 mm chosen), the use of `FIRST` (stored only),
 //! v3 ranges and defaults, the path shape of a multi-axis move.
 
+use super::controller::{VendorController, steps_to_nm, to_i32};
 use super::linlab::{self, Command, Param, ScaleCmd};
 use super::motion::{AxisLimits, Path, Stage};
 use super::serial::SerialTx;
-use super::{VendorController, steps_to_nm, to_i32};
 use crate::error::SimError;
 
 /// The motion card generation (`VER` 2.x or 3.x).

@@ -20,28 +20,28 @@
 //!   request's sub-blocks; GET_POSITIONS → INT32 × 4 (x, y, z, w nm, the sensed = true
 //!   position); GET_PARAMETER (MEM_SPEED, DEV_ID, AXIS_COUNT = 4) → (id, value);
 //!   GET_VERSION → UINT32 × 4;
-//! - GOTO_POS: mode 0 (default) moves x, then y, then z, then w [order inferred]; mode 1
+//! - GOTO_POS: mode 0 (default) moves x, then y, then z, then w (order inferred); mode 1
 //!   moves all axes together, each at its own speed (a dog-leg unless the host scales the
 //!   speeds). With REQ_NOTIFY, NOTIFY 104 (UINT32 code) goes to the requester at the end:
 //!   0 reached, [`CODE_INTERRUPTED`] = 1 stopped or replaced by another move, [`CODE_MISSED`]
-//!   = 3 ended off target (a stall) [codes 1 and 3 inferred; the SDK counts only 0 and 2 as
-//!   success]. TAKE_STEP moves relative, all axes together, ACK only;
+//!   = 3 ended off target (a stall) (codes 1 and 3 inferred; the SDK counts only 0 and 2 as
+//!   success). TAKE_STEP moves relative, all axes together, ACK only;
 //! - STOP stops dead at once (then the 104 of the move, if one was requested);
 //! - while moving, NOTIFY 101 (INT32 × 4 nm) every [`SensapexSettings::notify_period_us`]
 //!   (20 ms = the SDK's cache age, the device rate is inferred) and once at the end; NOTIFY
 //!   102 with the status bits (BUSY 0x01 | X 0x10 | Y 0x20 | Z 0x40 | W 0x80) at the start
-//!   and 0 at the end. Pushed notifications go to receiver 0x02FF (all PCs) [inferred];
+//!   and 0 at the end. Pushed notifications go to receiver 0x02FF (all PCs) (inferred);
 //!   every notification carries the device's own incrementing message id.
 //!
-//! Positions are whole multiples of [`SensapexSettings::resolution_nm`] (5 nm [inferred]);
-//! targets beyond the travel (0..20 mm [inferred]) are clamped. Not emulated: REQ_BCAST
+//! Positions are whole multiples of [`SensapexSettings::resolution_nm`] (5 nm, inferred);
+//! targets beyond the travel (0..20 mm, inferred) are clamped. Not emulated: REQ_BCAST
 //! (the IP destination is outside this model), memory drives, INIT_ZERO, features,
 //! the uMp's "speed < 1 crashes" report (the SDK's negative nm/s encoding is supported).
 
+use super::controller::{VendorController, to_i32};
 use super::motion::{AxisLimits, Path, Stage};
 use super::smcp::{self, ALL, ALL_DEVICES, ALL_PCS, DATA_INT32, DATA_UINT32, Header, kind, opt};
 use super::umprequest::{self, Request, param};
-use super::{VendorController, to_i32};
 use crate::error::SimError;
 use mesopush_protocol::units::um_to_nm_i64;
 use std::collections::VecDeque;
