@@ -38,6 +38,10 @@ pub struct AdapterStats {
     pub link_downs: u64,
     /// Received frames or replies that could not be read (too long, garbled).
     pub unreadable: u64,
+    /// Moves a point-to-point controller completed and the adapter checked at their target
+    /// (or skipped as shorter than the device executes); 0 for the native link, whose
+    /// controller reports its own.
+    pub moves_done: u64,
 }
 
 /// A motion controller as the core sees it.

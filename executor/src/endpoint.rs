@@ -125,6 +125,11 @@ impl<S: PlanStore, const CAP: usize, const LA: usize, const W: usize, A: Control
         &self.ctrl
     }
 
+    /// The controller adapter's counters.
+    pub fn adapter_stats(&self) -> crate::adapter::AdapterStats {
+        self.ctrl.stats()
+    }
+
     /// Counters (the host link's and the controller adapter's).
     pub fn stats(&self) -> EndpointStats {
         let a = self.ctrl.stats();

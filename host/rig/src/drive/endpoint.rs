@@ -142,6 +142,15 @@ impl ExecEndpoint {
         each!(self, ep => ep.host_link().stats())
     }
 
+    /// Moves a point-to-point controller completed (checked at their targets); `None` for
+    /// the native controller, whose node counts the segments it applied.
+    pub fn moves_done(&self) -> Option<u64> {
+        match self {
+            Self::Native(_) => None,
+            _ => Some(each!(self, ep => ep.adapter_stats().moves_done)),
+        }
+    }
+
     /// The controller link's statistics (the native link's; a point-to-point controller's
     /// line has no link layer: zero).
     pub fn ctrl_link_stats(&self) -> LinkStats {

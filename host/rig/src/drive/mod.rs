@@ -15,6 +15,7 @@
 //! Neither of those modules uses this one: the dependencies run drive → plant and
 //! drive → client only.
 
+pub mod ctrl_line;
 pub mod endpoint;
 pub mod faults;
 pub mod figure;
@@ -26,3 +27,4 @@ pub mod recorder;
 pub mod simloop;
 pub mod spec;
 pub mod trial;
+pub mod udp;

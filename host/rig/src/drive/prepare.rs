@@ -106,7 +106,12 @@ pub(crate) fn prepare(spec: &TrialSpec, out_dir: &Path) -> Result<Prepared, Erro
         theta_hint_rad: spec.plan.peg_start_pose().theta_rad,
         ..TrackSettings::default()
     };
-    let segments_expected = schedule.total_us().div_ceil(schedule.period());
+    // A point-to-point controller gets one move per plan step.
+    let segments_expected = if spec.controller.point_to_point() {
+        u64::try_from(schedule.steps.len()).unwrap_or(u64::MAX)
+    } else {
+        schedule.total_us().div_ceil(schedule.period())
+    };
     let recorder = Recorder::new(writer, &background, track, schedule)?;
     Ok(Prepared { rng, world, recorder, probe_start_nm, camera, config, limits, segments_expected })
 }

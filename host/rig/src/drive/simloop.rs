@@ -4,14 +4,17 @@
 //! stamps → recorder. Every line passes a seeded [`SimLine`] that injects the world file's
 //! faults on the way; one seed drives everything, so the same seed gives the same run.
 
+use super::ctrl_line::CtrlLine;
 use super::endpoint::{ExecEndpoint, endpoint_for};
 use super::faults::{FaultClasses, FaultCount};
 use super::pty::PtyLine;
 use super::recorder::RecMsg;
+use super::udp::UdpLine;
 use crate::Error;
 use crate::client::session::HostSession;
 use crate::plant::assemble::CameraTiming;
-use crate::plant::controller::{Controller, applied_segments, controller};
+use crate::plant::controller::{applied_segments, controller};
+use crate::plant::vendor::{EmulatorBox, Plant, emulator};
 use crate::plant::world::RigWorld;
 use crossbeam_channel::Sender;
 use mesopush_executor::shell::controller::ControllerKind;
@@ -32,9 +35,9 @@ pub struct SimLoop {
     /// The executor.
     pub exec: ExecEndpoint,
     /// The controller.
-    pub node: Controller,
+    pub node: Plant,
     /// The controller's line.
-    pub pty: PtyLine,
+    pub pty: CtrlLine,
     /// Simulated lines: exec→ctrl, ctrl→exec, host→exec, exec→host.
     pub lines: [SimLine; 4],
     /// The host.
@@ -73,7 +76,21 @@ impl SimLoop {
     ) -> Result<Self, Error> {
         let session = 1 + rng.fork(10).below(1000) as u16;
         let exec = endpoint_for(kind, config, session)?;
-        let node = controller(faults, rng.fork(1), 0, probe_start_nm);
+        let (node, line) = match kind {
+            ControllerKind::Native => {
+                let node = controller(faults, rng.fork(1), 0, probe_start_nm);
+                (Plant::Native(Box::new(node)), CtrlLine::Pty(PtyLine::open()?))
+            }
+            k => {
+                let seed = rng.fork(1).below(u64::MAX);
+                let emu = EmulatorBox(emulator(k, probe_start_nm, 0, seed)?);
+                let line = match k {
+                    ControllerKind::Sensapex => CtrlLine::Udp(UdpLine::open()?),
+                    _ => CtrlLine::Pty(PtyLine::open()?),
+                };
+                (Plant::Vendor(emu), line)
+            }
+        };
         let cam = SimCamera::new(
             camera.period_us,
             camera.readout_us,
@@ -85,7 +102,7 @@ impl SimLoop {
             now_us: 0,
             exec,
             node,
-            pty: PtyLine::open()?,
+            pty: line,
             lines: [2, 3, 4, 5].map(|s| SimLine::new(rng.fork(s), faults)),
             host,
             camera: cam,
@@ -192,8 +209,9 @@ impl SimLoop {
         for (t, msg) in std::mem::take(&mut self.host.inbox) {
             self.send(RecMsg::Host(t, msg))?;
         }
-        let new: Vec<(u64, NodeEvent)> = self.node.events[self.node_events_seen..].to_vec();
-        self.node_events_seen = self.node.events.len();
+        let events = self.node.events();
+        let new: Vec<(u64, NodeEvent)> = events[self.node_events_seen..].to_vec();
+        self.node_events_seen = events.len();
         for (t, e) in new {
             let (kind, detail) = match e {
                 NodeEvent::InjectedStall => {
@@ -226,9 +244,13 @@ impl SimLoop {
     }
 
     /// Segments the controller applied, and whether their ids ran consecutively (every
-    /// move exactly once, in order).
+    /// move exactly once, in order). A point-to-point controller: the moves its adapter saw
+    /// completed at their targets (one per plan step; the adapter runs them in order).
     pub fn applied(&self) -> (u64, bool) {
-        applied_segments(&self.node.events)
+        match self.exec.moves_done() {
+            Some(done) => (done, true),
+            None => applied_segments(self.node.events()),
+        }
     }
 
     /// Ends the loop (handing over the pending records, then closing the recorder's
@@ -256,7 +278,7 @@ impl SimLoop {
         };
         let stage = self
             .node
-            .events
+            .events()
             .iter()
             .filter(|(_, e)| {
                 matches!(

@@ -28,6 +28,7 @@ pub mod painter;
 pub mod start_camera;
 pub mod truth;
 pub mod truth_log;
+pub mod vendor;
 pub mod world;
 pub mod world_check;
 pub mod world_file;

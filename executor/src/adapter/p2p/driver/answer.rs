@@ -114,6 +114,7 @@ impl<P: Protocol, const Q: usize> PointToPointAdapter<P, Q> {
         if self.distance_nm(p, active.target) <= tolerance_nm {
             self.active = None;
             self.last_done = Some(id);
+            self.stats.moves_done += 1;
             if self.queue.is_empty() && self.state == CtrlState::Moving {
                 self.state = CtrlState::Idle;
             }

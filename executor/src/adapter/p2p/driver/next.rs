@@ -69,6 +69,7 @@ impl<P: Protocol, const Q: usize> PointToPointAdapter<P, Q> {
         let min = self.proto.min_move_units();
         if (0..3).all(|k| (i64::from(target[k]) - i64::from(from[k])).abs() < i64::from(min)) {
             self.last_done = Some(segment.segment_id);
+            self.stats.moves_done += 1;
             let status = CtrlToExec::Status(self.status(now_us));
             return self.event(crate::adapter::AdapterEvent::Ctrl(status));
         }
