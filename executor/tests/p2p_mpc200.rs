@@ -205,3 +205,20 @@ fn the_speed_byte_is_the_nearest_setting_for_the_fastest_axis() {
     assert_eq!(Mpc200::speed_byte(o, [1_600, 0, 0], 5_000_000), 15);
     assert_eq!(Mpc200::speed_byte(o, [1_600, 0, 0], 1), 0);
 }
+
+/// Regression: during a move that answers at its end the adapter named a poll time in the
+/// past as its next deadline (it never polls then), so the executor's real-time loop spun
+/// at FIFO priority and starved the host: "the host went silent" in the three-process flow.
+#[test]
+fn no_deadline_in_the_past_while_a_move_runs_without_polls() {
+    let mut a = ready();
+    a.command(3_000, &segment(15, 10_000, 5_100_000, 5_000_000, 140_000));
+    let _ = written(&mut a, 10_000);
+    let _ = written(&mut a, 45_000);
+    for now in [100_000, 200_000, 400_000] {
+        let _ = written(&mut a, now);
+        let _ = events(&mut a);
+        let next = a.next_deadline_us().unwrap();
+        assert!(next > now, "at {now} µs the next deadline is {next} µs");
+    }
+}

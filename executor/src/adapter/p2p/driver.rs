@@ -21,7 +21,7 @@
 
 use super::estimate::Profile;
 use super::scale::{nm_to_units, units_to_nm};
-use super::{Protocol, Request, Script};
+use super::{MoveReply, Protocol, Request, Script};
 use crate::adapter::{AdapterEvent, AdapterStats, ControllerAdapter};
 use crate::plan::hypot_nm;
 use heapless::Deque;
@@ -275,6 +275,24 @@ impl<P: Protocol, const Q: usize> PointToPointAdapter<P, Q> {
         self.inflight = Some(InFlight { request, deadline_us });
     }
 
+    /// When a poll will go out with nothing in flight: a move's poll (protocols answering at
+    /// once), or the idle poll where it is safe or the controller must be found again;
+    /// `None` when none will (a move answering at its end, or no idle polls). A wanted stop,
+    /// a set-up step or a check goes out at the next call anyway.
+    fn poll_due_us(&self) -> Option<u64> {
+        if self.stop_wanted {
+            return Some(0);
+        }
+        let found = self.measured.is_some() && self.alive;
+        match self.active {
+            Some(a) if a.verifying => Some(0),
+            Some(_) if self.proto.move_reply() == MoveReply::AtOnce => Some(self.next_poll_us),
+            Some(_) => None,
+            None if !found || self.proto.idle_polls_safe() => Some(self.next_poll_us),
+            None => None,
+        }
+    }
+
     /// The move's deadline: `move_timeout_pct` % of its duration plus the slack after `began_us`.
     fn move_deadline_us(&self, began_us: u64, duration_us: u64) -> u64 {
         let scaled = duration_us.saturating_mul(u64::from(self.settings.move_timeout_pct)) / 100;
@@ -339,12 +357,16 @@ impl<P: Protocol, const Q: usize> ControllerAdapter for PointToPointAdapter<P, Q
     }
 
     fn next_deadline_us(&self) -> Option<u64> {
-        let mut t = self.next_report_us.min(self.next_poll_us);
-        if let Some(f) = self.inflight {
-            t = t.min(f.deadline_us + 1);
-        }
+        let mut t = self.next_report_us;
         if self.next_chunk < self.script.len() {
             t = t.min(self.next_chunk_us);
+        }
+        if let Some(f) = self.inflight {
+            // Waiting for an answer: nothing else goes out before it, or its deadline.
+            return Some(t.min(f.deadline_us + 1));
+        }
+        if let Some(poll_us) = self.poll_due_us() {
+            t = t.min(poll_us);
         }
         if self.active.is_none()
             && let Some(front) = self.queue.front()

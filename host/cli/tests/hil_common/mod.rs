@@ -96,9 +96,15 @@ pub struct RigProcs {
 }
 
 pub fn start_rig(d: &Path, plan: &Path) -> RigProcs {
+    start_rig_with(d, plan, "native")
+}
+
+/// [`start_rig`] with the controller `controller` (`native`, `mpc200`, …) on both sides.
+pub fn start_rig_with(d: &Path, plan: &Path, controller: &str) -> RigProcs {
     let fw_dir = d.join("fw");
     let mut fwsim = Killed(
         Command::new(FWSIM)
+            .args(["--controller", controller])
             .args(["--seed", "3", "--rt-priority", "70", "--plan"])
             .arg(plan)
             .arg("--run-dir")
@@ -109,13 +115,15 @@ pub fn start_rig(d: &Path, plan: &Path) -> RigProcs {
     );
     let prefixes = ["controller:", "camera:", "background:", "truth:", "fixture origin:", "world:"];
     let b = read_banner(&mut fwsim.0, &prefixes, Duration::from_secs(60));
-    assert!(b[0].starts_with("/dev/"), "controller device: {b:?}");
+    let network = controller == "sensapex";
+    assert!(b[0].starts_with(if network { "udp:" } else { "/dev/" }), "controller line: {b:?}");
     let host_sock = d.join("host.sock");
     let host = format!("unix:{}", host_sock.display());
     let rec = d.join("rec");
     let executor = Killed(
         Command::new(executor_bin())
             .args(["run", "--host-port", &host, "--ctrl-port", &b[0], "--camera", &b[1]])
+            .args(["--controller", controller])
             .args(["--fixture-origin-um", &b[4], "--sync-max-rtt-us", "20000"])
             .args(["--rt-priority", "80", "--record-dir"])
             .arg(&rec)

@@ -20,9 +20,10 @@ use super::spec::{TrialProgress, TrialReport, TrialSpec};
 use crate::Error;
 use crate::client::session::{HostSession, SessionGoal};
 use crate::plant::controller::{applied_segments, controller};
-use crate::plant::ctrl_serve::ServedController;
+use crate::plant::ctrl_serve::{ServedController, ServedLine};
 use crate::plant::painter::{Deferred, Painter};
 use crate::plant::truth::TruthSample;
+use crate::plant::vendor::Plant;
 use crate::plant::world::RigWorld;
 use crate::plant::world_file::realtime_faults;
 use crossbeam_channel::{Sender, bounded};
@@ -134,7 +135,8 @@ pub fn run_realtime(
     let c = prep.camera;
     let camera = SimCamera::new(c.period_us, c.readout_us, c.start_us, prep.rng.fork(6), faults);
     let mut ctrl =
-        ServedController::new(master, node, camera).map_err(|e| Error::io("pty master", e))?;
+        ServedController::new(ServedLine::Pty(master), Plant::Native(Box::new(node)), camera)
+            .map_err(|e| Error::io("pty master", e))?;
     let mut world = prep.world;
     let painter = PainterThread::spawn(Painter::for_world(&mut world));
     let start = StagePoint { x_nm: prep.probe_start_nm.0, y_nm: prep.probe_start_nm.1 };
@@ -152,7 +154,7 @@ pub fn run_realtime(
     result?;
     let done = Finished {
         end: host.end().cloned(),
-        applied: applied_segments(&ctrl.node.events),
+        applied: applied_segments(ctrl.node.events()),
         segments_expected: prep.segments_expected,
         faults_injected: ctrl.camera.dropped + ctrl.camera.black,
         records_lost: lost,

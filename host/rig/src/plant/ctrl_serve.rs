@@ -2,7 +2,9 @@
 //! one [`ServedController::step`] reads what the executor wrote, runs the controller node,
 //! writes its frames back, moves the world to the stage's position and polls the camera.
 //! Used by the in-process real-time loop (the drive module's) and by the `mesopush-fwsim`
-//! process (`Fwsim`).
+//! process (`Fwsim`). The controller is the project's node or an emulated commercial one
+//! ([`Plant`]); a network controller (the Sensapex) is served on a UDP socket instead,
+//! one datagram per read and per reply, to whichever address last wrote to it.
 //!
 //! Writes never hold the loop up: frames go to a writer thread through a bounded queue
 //! ([`TX_QUEUE_FRAMES`]), like a UART's transmit FIFO; the writer waits for the line as long
@@ -13,13 +15,14 @@
 //! timed out ended `mesopush-fwsim` (`Operation timed out`), so the executor then saw a
 //! silent controller; a write that found some room but not enough could block the loop.
 
-use super::controller::Controller;
+use super::vendor::Plant;
 use crossbeam_channel::{Receiver, Sender, TrySendError, bounded};
 use mesopush_firmware_sim::World;
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
 use mesopush_protocol::FRAME_BUF_LEN;
 use serialport::{SerialPort, TTYPort};
 use std::io::{self, Read, Write};
+use std::net::{SocketAddr, UdpSocket};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -36,12 +39,22 @@ pub enum LineState {
     Connected,
 }
 
-/// The controller node, its pty master and the camera.
+/// The line the controller is served on.
+#[derive(Debug)]
+pub enum ServedLine {
+    /// A pseudo-terminal's master (serial controllers).
+    Pty(TTYPort),
+    /// A UDP socket (network controllers); replies go to the last sender.
+    Udp(UdpSocket),
+}
+
+/// The controller node, its line and the camera.
 #[derive(Debug)]
 pub struct ServedController {
-    master: TTYPort,
-    /// The controller node (firmware core, its link and drifting clock).
-    pub node: Controller,
+    master: Option<TTYPort>,
+    udp: Option<(UdpSocket, Option<SocketAddr>)>,
+    /// The controller (the project's node, or an emulated commercial controller).
+    pub node: Plant,
     /// The camera.
     pub camera: SimCamera,
     buf: [u8; 512],
@@ -90,20 +103,31 @@ fn no_peer(e: &io::Error) -> bool {
 }
 
 impl ServedController {
-    /// Serves `node` on `master` (reads wait at most 1 ms) with `camera`.
-    pub fn new(mut master: TTYPort, node: Controller, camera: SimCamera) -> io::Result<Self> {
-        master
-            .set_timeout(Duration::from_millis(1))
-            .map_err(|e| io::Error::other(e.to_string()))?;
-        let writer = master.try_clone_native().map_err(|e| io::Error::other(e.to_string()))?;
+    /// Serves `node` on `line` (reads wait at most 1 ms) with `camera`.
+    pub fn new(line: ServedLine, node: Plant, camera: SimCamera) -> io::Result<Self> {
         let (tx, rx) = bounded(TX_QUEUE_FRAMES);
         let writer_failed = Arc::new(AtomicBool::new(false));
-        let failed = writer_failed.clone();
-        std::thread::Builder::new()
-            .name("fwsim-ctrl-tx".into())
-            .spawn(move || write_frames(writer, &rx, &failed))?;
+        let (master, udp) = match line {
+            ServedLine::Pty(mut master) => {
+                master
+                    .set_timeout(Duration::from_millis(1))
+                    .map_err(|e| io::Error::other(e.to_string()))?;
+                let writer =
+                    master.try_clone_native().map_err(|e| io::Error::other(e.to_string()))?;
+                let failed = writer_failed.clone();
+                std::thread::Builder::new()
+                    .name("fwsim-ctrl-tx".into())
+                    .spawn(move || write_frames(writer, &rx, &failed))?;
+                (Some(master), None)
+            }
+            ServedLine::Udp(socket) => {
+                socket.set_read_timeout(Some(Duration::from_millis(1)))?;
+                (None, Some((socket, None)))
+            }
+        };
         Ok(Self {
             master,
+            udp,
             node,
             camera,
             buf: [0; 512],
@@ -134,23 +158,23 @@ impl ServedController {
         now_us: u64,
         world: &mut W,
     ) -> io::Result<(LineState, Option<SimFrame<W::Frame>>)> {
-        let (state, n) = match self.master.read(&mut self.buf) {
-            Ok(n) => (LineState::Connected, n),
-            Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock) => {
-                (LineState::Connected, 0)
-            }
-            Err(e) if no_peer(&e) => {
-                std::thread::sleep(Duration::from_millis(1));
-                (LineState::NoPeer, 0)
-            }
-            Err(e) => return Err(e),
-        };
-        self.node.on_bytes(now_us, &self.buf[..n]);
+        let (state, n) = self.read()?;
+        if n > 0 || self.master.is_some() {
+            self.node.on_bytes(now_us, &self.buf[..n]);
+        }
         self.node.tick(now_us);
         if self.writer_failed.load(Ordering::Relaxed) {
             return Err(io::Error::other("writing to the pty master failed"));
         }
-        if state == LineState::Connected {
+        if let Some((socket, Some(peer))) = &self.udp {
+            while let Some(d) = self.node.transmit(now_us, &mut self.out[..]) {
+                match socket.send_to(d, peer) {
+                    Ok(_) => {}
+                    Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => {}
+                    Err(e) => return Err(e),
+                }
+            }
+        } else if state == LineState::Connected && self.master.is_some() {
             while let Some(f) = self.node.transmit(now_us, &mut self.out[..]) {
                 match self.tx.try_send(f.to_vec()) {
                     Ok(()) => {}
@@ -163,5 +187,40 @@ impl ServedController {
         }
         world.step(now_us, self.node.probe_nm());
         Ok((state, self.camera.poll(now_us, world)))
+    }
+
+    /// Reads what arrived: a chunk of the pty, or one datagram (whose sender becomes the
+    /// peer replies go to).
+    fn read(&mut self) -> io::Result<(LineState, usize)> {
+        let quiet = |e: &io::Error| {
+            matches!(
+                e.kind(),
+                io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+            )
+        };
+        if let Some((socket, peer)) = self.udp.as_mut() {
+            return match socket.recv_from(&mut self.buf) {
+                Ok((n, from)) => {
+                    *peer = Some(from);
+                    Ok((LineState::Connected, n))
+                }
+                Err(e) if quiet(&e) || e.kind() == io::ErrorKind::ConnectionRefused => {
+                    let state =
+                        if peer.is_some() { LineState::Connected } else { LineState::NoPeer };
+                    Ok((state, 0))
+                }
+                Err(e) => Err(e),
+            };
+        }
+        let Some(master) = self.master.as_mut() else { return Ok((LineState::NoPeer, 0)) };
+        match master.read(&mut self.buf) {
+            Ok(n) => Ok((LineState::Connected, n)),
+            Err(e) if quiet(&e) => Ok((LineState::Connected, 0)),
+            Err(e) if no_peer(&e) => {
+                std::thread::sleep(Duration::from_millis(1));
+                Ok((LineState::NoPeer, 0))
+            }
+            Err(e) => Err(e),
+        }
     }
 }

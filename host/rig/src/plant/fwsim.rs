@@ -28,15 +28,17 @@
 
 use super::assemble::{Assembled, CameraTiming, assemble};
 use super::controller::{applied_segments, controller};
-use super::ctrl_serve::{LineState, ServedController};
+use super::ctrl_serve::{LineState, ServedController, ServedLine};
 use super::frame_png::encode_png;
 use super::truth::TruthSample;
+use super::vendor::{EmulatorBox, Plant, emulator};
 use super::world::RigWorld;
 use super::world_file::{WorldFile, realtime_faults};
 use crate::Error;
 use crossbeam_channel::{Sender, bounded};
 use mesopush_core::geom::Vec2;
 use mesopush_executor::clock::{Clock, MonotonicClock};
+use mesopush_executor::shell::controller::ControllerKind;
 use mesopush_firmware_sim::SimRng;
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
 use mesopush_protocol::camera::CameraFrameHeader;
@@ -48,6 +50,7 @@ use rand_chacha::ChaCha8Rng;
 use serialport::{SerialPort, TTYPort};
 use std::fs::File;
 use std::io::{BufWriter, Write};
+use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -73,12 +76,14 @@ pub struct FwsimOptions {
     pub seed: u64,
     /// Where the camera socket, background and truth go.
     pub run_dir: PathBuf,
+    /// The controller to serve (the project's, or an emulated commercial one).
+    pub controller: ControllerKind,
 }
 
 /// Where to reach a running simulator.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FwsimAddrs {
-    /// The controller's serial device (pty slave).
+    /// The controller's line: a serial device (pty slave), or `udp:HOST:PORT`.
     pub controller: String,
     /// The camera socket.
     pub camera: PathBuf,
@@ -147,7 +152,8 @@ fn io_err(what: impl AsRef<Path>, e: impl std::fmt::Display) -> Error {
 }
 
 /// The controller served on a new pseudo-terminal (the slave's path returned: the executor
-/// opens it), the stage at the plan's start, with the camera, on `clock`.
+/// opens it) — or, for a network controller, on a loopback UDP socket (`udp:127.0.0.1:PORT`
+/// returned) — the stage at the plan's start, with the camera, on `clock`.
 fn serve_controller(
     opts: &FwsimOptions,
     rng: &SimRng,
@@ -155,15 +161,30 @@ fn serve_controller(
     clock: &MonotonicClock,
 ) -> Result<(ServedController, String), Error> {
     let faults = realtime_faults(&opts.world.spec.faults)?;
-    let (master, slave) = TTYPort::pair().map_err(|e| io_err("pty", e))?;
-    let path = slave.name().ok_or_else(|| io_err("pty", "the pty slave has no path"))?;
-    drop(slave); // the executor opens it by path; until then the master reads EIO
     let [ox, oy] = opts.world.spec.stage.offset_um;
     let p = opts.plan.probe_start() + Vec2::new(ox, oy);
     let start_nm = (um_to_nm("stage start x", p.x)?, um_to_nm("stage start y", p.y)?);
-    let node = controller(faults, rng.fork(1), clock.now_us(), start_nm);
+    let node = match opts.controller {
+        ControllerKind::Native => {
+            Plant::Native(Box::new(controller(faults, rng.fork(1), clock.now_us(), start_nm)))
+        }
+        kind => {
+            let seed = rng.fork(1).below(u64::MAX);
+            Plant::Vendor(EmulatorBox(emulator(kind, start_nm, clock.now_us(), seed)?))
+        }
+    };
+    let (line, path) = if opts.controller == ControllerKind::Sensapex {
+        let socket = UdpSocket::bind("127.0.0.1:0").map_err(|e| io_err("udp", e))?;
+        let addr = socket.local_addr().map_err(|e| io_err("udp", e))?;
+        (ServedLine::Udp(socket), format!("udp:{addr}"))
+    } else {
+        let (master, slave) = TTYPort::pair().map_err(|e| io_err("pty", e))?;
+        let path = slave.name().ok_or_else(|| io_err("pty", "the pty slave has no path"))?;
+        drop(slave); // the executor opens it by path; until then the master reads EIO
+        (ServedLine::Pty(master), path)
+    };
     let camera = SimCamera::new(cam.period_us, cam.readout_us, cam.start_us, rng.fork(6), faults);
-    let ctrl = ServedController::new(master, node, camera).map_err(|e| io_err(&path, e))?;
+    let ctrl = ServedController::new(line, node, camera).map_err(|e| io_err(&path, e))?;
     Ok((ctrl, path))
 }
 
@@ -261,7 +282,7 @@ impl Fwsim {
             frames,
             frames_unsent: self.unsent.load(Ordering::Relaxed),
             frames_render_dropped: self.render_dropped,
-            segments_applied: applied_segments(&self.ctrl.node.events).0,
+            segments_applied: applied_segments(self.ctrl.node.events()).0,
             jams: u64::try_from(self.world.jam_events().len()).unwrap_or(u64::MAX),
             line_frames_dropped: self.ctrl.tx_dropped_frames(),
         })

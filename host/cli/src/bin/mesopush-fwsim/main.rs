@@ -6,6 +6,7 @@
 
 use anyhow::Context;
 use clap::Parser;
+use mesopush_executor::shell::controller::ControllerKind;
 use mesopush_executor::shell::rt::{RtOptions, apply};
 use mesopush_rig::WorldFile;
 use mesopush_rig::plant::fwsim::{Fwsim, FwsimOptions};
@@ -44,6 +45,12 @@ struct Args {
     /// keep the normal scheduler. Refused by the OS: a message, and it runs without.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(i32).range(1..=99))]
     rt_priority: Option<i32>,
+    /// The controller to serve: `native` (the project's streaming controller) or an emulated
+    /// commercial one, byte for byte from its public protocol: `mpc200`, `mp285`,
+    /// `scientifica` (on the pseudo-terminal), `sensapex` (on a loopback UDP socket). Start
+    /// the executor with the same `--controller` (docs/hardware.md).
+    #[arg(long, default_value = "native", value_parser = ControllerKind::parse)]
+    controller: ControllerKind,
 }
 
 fn main() -> std::process::ExitCode {
@@ -66,10 +73,17 @@ fn run(args: Args) -> anyhow::Result<()> {
         None => Plan::from_toml(TABLE2_TOML, Path::new("plans/table2.toml (embedded)"))?,
     };
     check_plan_on_stage(&plan, world.spec.stage.offset_um)?;
-    let opts = FwsimOptions { world, plan, seed: args.seed, run_dir: args.run_dir.clone() };
+    let opts = FwsimOptions {
+        world,
+        plan,
+        seed: args.seed,
+        run_dir: args.run_dir.clone(),
+        controller: args.controller,
+    };
     let sim = Fwsim::start(&opts).context("starting the firmware simulator")?;
     let a = sim.addrs();
     println!("controller: {}", a.controller);
+    println!("controller kind: {}", args.controller.name());
     println!("camera: unix:{}", a.camera.display());
     println!("background: {}", a.background.display());
     println!("truth: {}", a.truth.display());
