@@ -9,7 +9,8 @@ use mesopush_firmware_sim::camera::SimCamera;
 use mesopush_firmware_sim::world::{PegPose, World};
 use mesopush_firmware_sim::{FaultConfig, SimRng};
 use mesopush_rig::plant::controller::controller;
-use mesopush_rig::plant::ctrl_serve::{LineState, ServedController, TX_QUEUE_FRAMES};
+use mesopush_rig::plant::ctrl_serve::{LineState, ServedController, ServedLine, TX_QUEUE_FRAMES};
+use mesopush_rig::plant::vendor::Plant;
 use serialport::{SerialPort, TTYPort};
 use std::io::Read;
 use std::time::Duration;
@@ -30,7 +31,9 @@ fn an_executor_that_stops_reading_does_not_stop_the_controller() {
     let rng = SimRng::new(4);
     let node = controller(FaultConfig::NONE, rng.fork(1), 0, (1_000_000, 1_000_000));
     let camera = SimCamera::new(1_000_000_000, 0, 1_000_000_000, rng.fork(6), FaultConfig::NONE);
-    let mut ctrl = ServedController::new(master, node, camera).expect("served");
+    let mut ctrl =
+        ServedController::new(ServedLine::Pty(master), Plant::Native(Box::new(node)), camera)
+            .expect("served");
     // 30 s of controller time without the executor reading a byte.
     let mut now_us = 0;
     for _ in 0..3_000 {
