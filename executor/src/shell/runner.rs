@@ -52,7 +52,9 @@ pub struct ShellStats {
     pub logged: u64,
     /// Log records lost because the recorder's channel was full.
     pub log_dropped: u64,
-    /// Largest lateness of a loop wake-up past the core's deadline, µs.
+    /// Largest lateness of a loop wake-up past the core's deadline, µs: only deadlines that
+    /// were still ahead when the loop went to wait count (a deadline already past — the
+    /// first pass after start-up, whose clock started before the set-up — is no wake-up).
     pub max_late_us: u64,
     /// Setpoint segment writes against their send schedule.
     pub sends: SendTiming,
@@ -203,6 +205,7 @@ impl Shell {
     ) -> Option<ShellEnd> {
         stats.iterations += 1;
         let deadline = endpoint.next_deadline_us();
+        let waited_from_us = clock.now_us();
         let spin_us = if due.is_some_and(|d| d <= deadline) { opts.spin_us } else { 0 };
         let wait_us = deadline.saturating_sub(spin_us).saturating_sub(clock.now_us());
         let wait_us = wait_us.min(MAX_WAIT_US);
@@ -230,7 +233,7 @@ impl Shell {
             }
         };
         let now = clock.now_us();
-        if now > deadline {
+        if deadline > waited_from_us && now > deadline {
             stats.max_late_us = stats.max_late_us.max(now - deadline);
         }
         // The core only fails on a too-small output buffer, which Endpoint rules out.
