@@ -3,6 +3,11 @@
 //! every step ([`NeedleWatch`]) and reports the peak and, when the limit was exceeded, an
 //! [`Overload`]: the replay's verdict is then "overloaded", never "inserted", whatever
 //! the peg's final pose.
+//!
+//! A jam (the simulator finds the peg wedged and stops the probe for the rest of the move)
+//! bends the needle too: the stage goes on to the move's end while the tip stays, so the
+//! deflection at the jam grows by the travel left in the move, as the rig's world measures
+//! it (commanded tip − tip). The force is then the bent needle's, deflection / compliance.
 
 use serde::Serialize;
 
@@ -50,6 +55,7 @@ pub struct NeedleWatch {
     peak_force_weights: f64,
     peak_move_index: usize,
     max_force_weights: f64,
+    last_deflection_um: f64,
     first: Option<(usize, f64)>,
 }
 
@@ -62,6 +68,7 @@ impl NeedleWatch {
             peak_force_weights: 0.0,
             peak_move_index: 0,
             max_force_weights: 0.0,
+            last_deflection_um: 0.0,
             first: None,
         }
     }
@@ -70,6 +77,7 @@ impl NeedleWatch {
     /// part weights. Exceeding means strictly above the limit.
     pub fn note(&mut self, move_index: usize, t_s: f64, deflection_um: f64, force_weights: f64) {
         self.max_force_weights = self.max_force_weights.max(force_weights);
+        self.last_deflection_um = deflection_um;
         if deflection_um > self.peak_deflection_um {
             self.peak_deflection_um = deflection_um;
             self.peak_force_weights = force_weights;
@@ -78,6 +86,20 @@ impl NeedleWatch {
         if deflection_um > self.limit_um && self.first.is_none() {
             self.first = Some((move_index, t_s));
         }
+    }
+
+    /// Notes a jam in move `move_index` at `t_s` with `remaining_um` of the move's travel left:
+    /// the needle, pressed by the last step's deflection, bends by that travel more, under
+    /// deflection / `compliance_um_per_weight` part weights (infinite for a rigid probe).
+    pub fn note_jam(
+        &mut self,
+        move_index: usize,
+        t_s: f64,
+        remaining_um: f64,
+        compliance_um_per_weight: f64,
+    ) {
+        let bent_um = self.last_deflection_um + remaining_um.max(0.0);
+        self.note(move_index, t_s, bent_um, bent_um / compliance_um_per_weight);
     }
 
     /// Largest deflection so far, µm.
@@ -123,5 +145,21 @@ mod tests {
             (3, 296.0, 592.0)
         );
         assert!(o.to_string().starts_with("needle overload at move 4: 296 µm > 50 µm"), "{o}");
+    }
+
+    #[test]
+    fn a_jam_bends_the_needle_by_the_travel_left_in_the_move() {
+        let mut w = NeedleWatch::new(50.0);
+        w.note(0, 1.0, 4.0, 8.0);
+        w.note_jam(0, 1.1, 30.0, 0.5);
+        assert_eq!(w.overload(), None, "4 + 30 µm is within 50 µm");
+        assert_eq!((w.peak_deflection_um(), w.max_force_weights()), (34.0, 68.0));
+        w.note(1, 2.0, 0.0, 0.0);
+        w.note_jam(1, 2.5, 60.0, 0.5);
+        let o = w.overload().expect("60 µm left in the move");
+        assert_eq!(
+            (o.first_move_index, o.peak_deflection_um, o.peak_force_weights),
+            (1, 60.0, 120.0)
+        );
     }
 }

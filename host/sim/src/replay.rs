@@ -60,7 +60,8 @@ pub struct Replay {
     pub lcp_solves: usize,
     /// Largest penetration of the peg into a wall seen after any step, µm.
     pub max_penetration_um: f64,
-    /// Largest probe needle deflection (compliance × force), µm: how far the commanded tip
+    /// Largest probe needle deflection (compliance × force; after a jam, plus the travel the
+    /// probe was commanded past the point where it stopped), µm: how far the commanded tip
     /// position overlaps the peg because the needle bends.
     pub max_probe_deflection_um: f64,
     /// Largest probe normal force, part weights.
@@ -126,8 +127,11 @@ pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<R
             out.samples.push(sample(t_s, mi, st, info));
         })?;
         if let SegmentEnd::Jammed { done_um, cause } = end {
+            let t_s = (travel_um + done_um) / speed;
+            let compliance = sim.settings().probe_compliance_um;
+            needle.note_jam(mi, t_s, delta.norm() - done_um, compliance);
             out.events.push(SimEvent {
-                t_s: (travel_um + done_um) / speed,
+                t_s,
                 move_index: mi,
                 what: format!("jammed: probe stopped for the rest of the move ({cause})"),
             });
