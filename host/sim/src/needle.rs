@@ -24,23 +24,29 @@ pub struct Overload {
     pub peak_deflection_um: f64,
     /// Move (0-based) of the largest deflection.
     pub peak_move_index: usize,
-    /// Probe force at the largest deflection, part weights.
+    /// Probe force at the largest deflection, part weights (after a jam: the bent needle's,
+    /// deflection / compliance).
     pub peak_force_weights: f64,
+    /// Whether the largest deflection came from a jam (the peg wedged, the stage went on).
+    pub peak_at_jam: bool,
 }
 
 impl std::fmt::Display for Overload {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (move_no, peak, limit) =
+            (self.peak_move_index + 1, self.peak_deflection_um, self.limit_um);
+        write!(f, "needle overload at move {move_no}: {peak:.0} µm > {limit:.0} µm (")?;
+        if self.peak_at_jam {
+            f.write_str("the peg wedged and the stage went on while the tip stayed")?;
+        } else {
+            write!(f, "probe force {:.0} part weights", self.peak_force_weights)?;
+        }
         write!(
             f,
-            "needle overload at move {}: {:.0} µm > {:.0} µm (probe force {:.0} part weights; \
-             the limit was first exceeded in move {}, t = {:.2} s): the plan pushes the peg \
+            "; the limit was first exceeded in move {}, t = {:.2} s): the plan pushes the peg \
              against something that does not give — do not run it on a rig; re-plan, or \
              raise probe_deflection_limit_um in the model only if the needle really bends \
              that far elastically",
-            self.peak_move_index + 1,
-            self.peak_deflection_um,
-            self.limit_um,
-            self.peak_force_weights,
             self.first_move_index + 1,
             self.first_t_s
         )
@@ -54,6 +60,7 @@ pub struct NeedleWatch {
     peak_deflection_um: f64,
     peak_force_weights: f64,
     peak_move_index: usize,
+    peak_at_jam: bool,
     max_force_weights: f64,
     last_deflection_um: f64,
     first: Option<(usize, f64)>,
@@ -67,6 +74,7 @@ impl NeedleWatch {
             peak_deflection_um: 0.0,
             peak_force_weights: 0.0,
             peak_move_index: 0,
+            peak_at_jam: false,
             max_force_weights: 0.0,
             last_deflection_um: 0.0,
             first: None,
@@ -82,6 +90,7 @@ impl NeedleWatch {
             self.peak_deflection_um = deflection_um;
             self.peak_force_weights = force_weights;
             self.peak_move_index = move_index;
+            self.peak_at_jam = false;
         }
         if deflection_um > self.limit_um && self.first.is_none() {
             self.first = Some((move_index, t_s));
@@ -99,7 +108,9 @@ impl NeedleWatch {
         compliance_um_per_weight: f64,
     ) {
         let bent_um = self.last_deflection_um + remaining_um.max(0.0);
+        let peak_before = self.peak_deflection_um;
         self.note(move_index, t_s, bent_um, bent_um / compliance_um_per_weight);
+        self.peak_at_jam |= self.peak_deflection_um > peak_before;
     }
 
     /// Largest deflection so far, µm.
@@ -121,6 +132,7 @@ impl NeedleWatch {
             peak_deflection_um: self.peak_deflection_um,
             peak_move_index: self.peak_move_index,
             peak_force_weights: self.peak_force_weights,
+            peak_at_jam: self.peak_at_jam,
         })
     }
 }
@@ -161,5 +173,6 @@ mod tests {
             (o.first_move_index, o.peak_deflection_um, o.peak_force_weights),
             (1, 60.0, 120.0)
         );
+        assert!(o.peak_at_jam && o.to_string().contains("the peg wedged"), "{o}");
     }
 }
