@@ -107,6 +107,9 @@ pub enum FaultCode {
     SegmentLate,
     /// The executor's heartbeats stopped.
     ExecutorSilent,
+    /// The needle's measured deflection exceeded the controller's limit (the peg wedged or
+    /// the plan pushes too hard).
+    NeedleOverload,
     /// A code this schema does not name.
     Other(u16),
 }
@@ -172,7 +175,7 @@ impl MaxSize for CtrlStatus {
 }
 
 impl MaxSize for FaultCode {
-    const MAX_SIZE: usize = discriminant_bytes(9) + u16::MAX_SIZE;
+    const MAX_SIZE: usize = discriminant_bytes(10) + u16::MAX_SIZE;
 }
 
 impl MaxSize for FaultReport {
