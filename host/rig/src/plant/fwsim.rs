@@ -161,7 +161,8 @@ fn serve_controller(
     let [ox, oy] = opts.world.spec.stage.offset_um;
     let p = opts.plan.probe_start() + Vec2::new(ox, oy);
     let start_nm = (um_to_nm("stage start x", p.x)?, um_to_nm("stage start y", p.y)?);
-    let node = controller(faults, rng.fork(1), clock.now_us(), start_nm);
+    let limit_um = opts.world.model.probe_deflection_limit_um;
+    let node = controller(faults, rng.fork(1), clock.now_us(), start_nm, limit_um)?;
     let camera = SimCamera::new(cam.period_us, cam.readout_us, cam.start_us, rng.fork(6), faults);
     let ctrl = ServedController::new(master, node, camera).map_err(|e| io_err(&path, e))?;
     Ok((ctrl, path))
