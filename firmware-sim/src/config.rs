@@ -39,6 +39,12 @@ pub struct CtrlConfig {
     /// No message from the executor this long while moving → `ExecutorSilent`, µs.
     /// Default 250 ms.
     pub executor_silence_us: u64,
+    /// Needle deflection above which the controller faults `NeedleOverload`, nm, when the
+    /// world reports the needle's deflection ([`crate::World::needle_deflection_nm`]).
+    /// Default `None` (no check): the limit is the needle's, so it comes from the world's
+    /// model (`probe_deflection_limit_um`, 50 µm by default), which the host's rig sets here;
+    /// this crate states no second default.
+    pub needle_deflection_limit_nm: Option<i32>,
 }
 
 impl CtrlConfig {
@@ -57,6 +63,7 @@ impl CtrlConfig {
         travel_nm: [0, 12_000_000, 0, 12_000_000],
         late_tolerance_us: 2_000,
         executor_silence_us: 250_000,
+        needle_deflection_limit_nm: None,
     };
 
     /// Checks the settings; names the first bad field.
@@ -77,6 +84,9 @@ impl CtrlConfig {
         let t = self.travel_nm;
         if t[0] > t[1] || t[2] > t[3] {
             return bad("travel_nm");
+        }
+        if self.needle_deflection_limit_nm.is_some_and(|l| l <= 0) {
+            return bad("needle_deflection_limit_nm");
         }
         Ok(())
     }

@@ -13,7 +13,11 @@
 //! - `SegmentLate`: any other segment dequeued that late;
 //! - `Stall`: following error above `stall_error_nm`; `LimitSwitch`: the stage left the
 //!   travel (or a switch tripped, injected); `ExecutorSilent`: no message while moving for
-//!   `executor_silence_us`; `Reboot`: reported by a freshly booted controller.
+//!   `executor_silence_us`; `Reboot`: reported by a freshly booted controller;
+//! - `NeedleOverload`: the needle's sensed deflection ([`Controller::sense_needle`]) above
+//!   `needle_deflection_limit_nm`. One fault per episode: the check re-arms only once the
+//!   deflection has fallen to half the limit, so after `ClearFault` the probe can be backed
+//!   off a wedged peg without faulting again on the way.
 
 use crate::config::CtrlConfig;
 use crate::stage::Stage;
@@ -76,6 +80,8 @@ pub struct Controller<const Q: usize> {
     next_status_us: u64,
     next_heartbeat_us: u64,
     limit_tripped: bool,
+    /// The needle check may fault (re-armed below half the limit after a fault).
+    needle_armed: bool,
 }
 
 impl<const Q: usize> Controller<Q> {
@@ -104,6 +110,7 @@ impl<const Q: usize> Controller<Q> {
             next_status_us: now_ctrl_us,
             next_heartbeat_us: now_ctrl_us,
             limit_tripped: false,
+            needle_armed: true,
         };
         if rebooted {
             c.fault(now_ctrl_us, FaultCode::Reboot, None, out);
@@ -134,6 +141,26 @@ impl<const Q: usize> Controller<Q> {
     /// Injects a limit-switch trip.
     pub fn inject_limit_switch(&mut self) {
         self.limit_tripped = true;
+    }
+
+    /// The needle's deflection sensed at `now_ctrl_us`, nm: faults `NeedleOverload` when it
+    /// exceeds `needle_deflection_limit_nm` (strictly) while the check is armed and the
+    /// controller is not already faulted. No limit configured: nothing happens.
+    pub fn sense_needle(
+        &mut self,
+        now_ctrl_us: u64,
+        deflection_nm: i32,
+        out: &mut impl FnMut(CtrlOutput),
+    ) {
+        let Some(limit) = self.cfg.needle_deflection_limit_nm else { return };
+        if deflection_nm <= limit / 2 {
+            self.needle_armed = true;
+        }
+        if deflection_nm > limit && self.needle_armed && self.state != CtrlState::Faulted {
+            self.needle_armed = false;
+            let segment_id = self.active.map(|a| a.seg.segment_id);
+            self.fault(now_ctrl_us, FaultCode::NeedleOverload, segment_id, out);
+        }
     }
 
     /// A message from the executor.

@@ -12,6 +12,7 @@
 use crate::config::{CtrlConfig, FaultConfig};
 use crate::controller::{Controller, CtrlEvent, CtrlOutput};
 use crate::rng::SimRng;
+use crate::world::{PegPose, World};
 use mesopush_protocol::{
     CtrlToExec, ExecToCtrl, FRAME_BUF_LEN, FrameReader, Link, LinkConfig, encode_frame,
 };
@@ -134,6 +135,25 @@ impl<const Q: usize, const W: usize> ControllerNode<Q, W> {
     pub fn probe_nm(&self) -> (i32, i32) {
         let p = self.ctrl.stage().pos_nm;
         (p.0.round() as i32, p.1.round() as i32)
+    }
+
+    /// Steps `world` to `sim_us` with the probe where the stage is, then senses the needle's
+    /// deflection when the world reports it ([`Controller::sense_needle`]); returns the peg's
+    /// pose. Every loop reaches the world through this, so the controller sees what the
+    /// world's needle does.
+    pub fn step_world<P: World>(&mut self, sim_us: u64, world: &mut P) -> PegPose {
+        let pose = world.step(sim_us, self.probe_nm());
+        if let Some(d) = world.needle_deflection_nm() {
+            self.sense_needle(sim_us, d);
+        }
+        pose
+    }
+
+    /// The needle's deflection sensed at `sim_us`, nm (see [`Controller::sense_needle`]).
+    pub fn sense_needle(&mut self, sim_us: u64, deflection_nm: i32) {
+        let now_ctrl = self.clock.ctrl_us(sim_us);
+        let (ctrl, outbox, events) = (&mut self.ctrl, &mut self.outbox, &mut self.events);
+        ctrl.sense_needle(now_ctrl, deflection_nm, &mut |o| route(o, sim_us, outbox, events));
     }
 
     /// Bytes from the executor's line.

@@ -4,7 +4,7 @@
 //! The host implements [`World`] with its quasi-static simulator and renderer; the firmware
 //! simulator only moves the probe and asks for poses and frames, so no package cycle
 //! appears. Units follow the host's physics convention for the pose (µm, rad) and the
-//! wire's for the probe (nm).
+//! wire's for the probe and the needle's deflection the controller senses (nm).
 
 /// Peg pose in the fixture frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,4 +28,11 @@ pub trait World {
 
     /// Renders what the camera sees at `sim_time_us`.
     fn render(&mut self, sim_time_us: u64) -> Self::Frame;
+
+    /// The needle's deflection now (commanded tip − actual tip), nm, when the world knows it
+    /// (a strain gauge on a real needle; the host's simulated world); the controller faults
+    /// `NeedleOverload` when it exceeds its limit. Default: not reported.
+    fn needle_deflection_nm(&self) -> Option<i32> {
+        None
+    }
 }

@@ -188,3 +188,62 @@ fn stop_flushes_and_sync_queries_are_answered_in_controller_time() {
     assert_eq!(rebooted.state(), CtrlState::Faulted);
     assert_eq!(out.faults().last(), Some(&FaultCode::Reboot));
 }
+
+/// The needle check (issue 19, "Needle safety"): the controller faults `NeedleOverload` as
+/// soon as the sensed deflection exceeds its limit — not at the limit, not below it — stops
+/// the stage there, reports the segment it was running, and faults once per episode.
+#[test]
+fn the_needle_fault_fires_above_the_limit_and_not_at_or_below_it() {
+    const LIMIT_NM: i32 = 50_000;
+    let cfg = CtrlConfig { needle_deflection_limit_nm: Some(LIMIT_NM), ..CtrlConfig::DEFAULT };
+    cfg.validate().unwrap();
+    let mut out = Out::default();
+    let mut c = Ctrl::boot(cfg, 0, START, false, &mut out.sink());
+    for k in 1..=20 {
+        c.handle(0, &ExecToCtrl::Move(seg(k, 10_000)), &mut out.sink());
+    }
+    c.tick(50_000, &mut out.sink());
+    for d in [0, 25_000, 49_999, LIMIT_NM] {
+        c.sense_needle(50_000, d, &mut out.sink());
+    }
+    assert!(out.faults().is_empty(), "at and below the limit: {:?}", out.faults());
+    assert_eq!(c.state(), CtrlState::Moving);
+    c.sense_needle(51_000, LIMIT_NM + 1, &mut out.sink());
+    assert_eq!(out.faults(), vec![FaultCode::NeedleOverload]);
+    assert_eq!(c.state(), CtrlState::Faulted);
+    let report = out.msgs.iter().find_map(|m| match m {
+        CtrlToExec::Fault(f) => Some(*f),
+        _ => None,
+    });
+    let report = report.unwrap();
+    assert_eq!((report.ctrl_time_us, report.segment_id), (51_000, Some(5)), "{report:?}");
+    let held = c.stage().pos_nm;
+    c.tick(300_000, &mut out.sink());
+    let drift = (c.stage().pos_nm.0 - held.0).hypot(c.stage().pos_nm.1 - held.1);
+    assert!(drift < 1.0, "the faulted stage stays put: moved {drift} nm");
+    assert_eq!(c.queue_len(), 0, "the queue was flushed");
+
+    // Cleared while still bent: backing off does not fault again until the needle has
+    // relaxed to half the limit; then a new episode faults again.
+    c.handle(300_000, &ExecToCtrl::ClearFault, &mut out.sink());
+    for d in [80_000, 60_000, 30_000] {
+        c.sense_needle(301_000, d, &mut out.sink());
+    }
+    assert_eq!(out.faults().len(), 1, "one fault per episode");
+    c.sense_needle(302_000, LIMIT_NM / 2, &mut out.sink());
+    c.sense_needle(303_000, LIMIT_NM + 1, &mut out.sink());
+    assert_eq!(out.faults(), vec![FaultCode::NeedleOverload; 2]);
+}
+
+#[test]
+fn without_a_needle_limit_no_deflection_faults_and_a_limit_of_zero_is_refused() {
+    let mut out = Out::default();
+    let mut c = boot(&mut out);
+    c.sense_needle(1_000, i32::MAX, &mut out.sink());
+    assert!(out.faults().is_empty());
+    for bad in [0, -1] {
+        let cfg = CtrlConfig { needle_deflection_limit_nm: Some(bad), ..CtrlConfig::DEFAULT };
+        let e = cfg.validate().unwrap_err().to_string();
+        assert!(e.contains("needle_deflection_limit_nm"), "{e}");
+    }
+}

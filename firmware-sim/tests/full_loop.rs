@@ -5,8 +5,8 @@
 mod bench;
 
 use bench::{Bench, Entry, PROBE_START_NM};
-use mesopush_executor::LogEvent;
-use mesopush_firmware_sim::{FaultConfig, NodeEvent};
+use mesopush_executor::{ExecutorConfig, LogEvent};
+use mesopush_firmware_sim::{CtrlConfig, FaultConfig, NodeEvent};
 use mesopush_protocol::ctrl::FaultCode;
 use mesopush_protocol::flash::PlanStep;
 use mesopush_protocol::host::{ExecState, TrialEventKind, TrialFault};
@@ -133,6 +133,46 @@ fn a_controller_reboot_mid_trial_faults_it_and_no_move_runs_after() {
         bench.applied().len() <= applied_before + 1,
         "moves resent to the new controller were ignored"
     );
+}
+
+/// The needle check end to end (issue 19, "Needle safety"): a wall 40 µm left of the start
+/// holds the needle's tip while the plan's 90 µm move along −x goes on, so the world reports
+/// a deflection of up to 50 µm. With a 30 µm limit the controller faults `NeedleOverload`
+/// there, the executor faults the trial with it — in words an operator acts on — and the
+/// probe stops just past 30 µm of bend; with a 60 µm limit the same plan runs to its end.
+#[test]
+fn a_needle_bent_beyond_the_controllers_limit_faults_the_trial_and_stops_the_probe() {
+    let wall_x_nm = PROBE_START_NM.0 as i32 - 40_000;
+    let run = |limit_nm: i32| {
+        let ctrl = CtrlConfig { needle_deflection_limit_nm: Some(limit_nm), ..CtrlConfig::DEFAULT };
+        let mut bench = Bench::with_configs(9, faulty(), plan(), ExecutorConfig::DEFAULT, ctrl);
+        bench.world.wall_x_nm = Some(wall_x_nm);
+        bench.run(10_000_000);
+        bench
+    };
+    let mut bench = run(30_000);
+    assert_eq!(bench.state(), ExecState::Faulted);
+    let fault = bench.exec.core().status(bench.now_us).last_fault;
+    let Some(TrialFault::Controller(r)) = fault else { panic!("{fault:?}") };
+    assert_eq!(r.code, FaultCode::NeedleOverload);
+    let text = TrialFault::Controller(r).to_string();
+    assert!(
+        text.contains("the needle bent beyond its limit") && text.contains("rig goto"),
+        "{text}"
+    );
+    let stopped_at = bench.node.probe_nm();
+    let bent = wall_x_nm - stopped_at.0;
+    assert!((30_000..32_000).contains(&bent), "stopped with the needle bent {bent} nm");
+    bench.run_for(500_000);
+    let (x, y) = bench.node.probe_nm();
+    let moved = (x - stopped_at.0).abs().max((y - stopped_at.1).abs());
+    assert!(
+        moved <= 100,
+        "the probe never moved again (settled {moved} nm, within the encoder's 100 nm)"
+    );
+
+    let bench = run(60_000);
+    assert_eq!(bench.state(), ExecState::Done, "50 µm of bend is within a 60 µm limit");
 }
 
 #[test]

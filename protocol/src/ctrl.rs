@@ -107,6 +107,9 @@ pub enum FaultCode {
     SegmentLate,
     /// The executor's heartbeats stopped.
     ExecutorSilent,
+    /// The needle's measured deflection exceeded the controller's limit (the peg wedged or
+    /// the plan pushes too hard).
+    NeedleOverload,
     /// A code this schema does not name.
     Other(u16),
     /// A point-to-point controller did not execute a move it was sent (the stage stayed
@@ -175,7 +178,7 @@ impl MaxSize for CtrlStatus {
 }
 
 impl MaxSize for FaultCode {
-    const MAX_SIZE: usize = discriminant_bytes(10) + u16::MAX_SIZE;
+    const MAX_SIZE: usize = discriminant_bytes(11) + u16::MAX_SIZE;
 }
 
 impl MaxSize for FaultReport {

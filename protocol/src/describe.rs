@@ -112,6 +112,12 @@ impl fmt::Display for FaultCode {
                 "the controller stopped because the executor's heartbeats ceased; check the \
                  executor process and the controller line",
             ),
+            Self::NeedleOverload => f.write_str(
+                "the needle bent beyond its limit (the model's probe_deflection_limit_um): the \
+                 peg is wedged or the plan pushes too hard; back the probe off with `rig goto`, \
+                 look at the needle for damage, and check the plan with `mesopush sim` (it \
+                 reports the peak deflection) before running it again",
+            ),
             Self::Other(code) => write!(
                 f,
                 "the controller reported fault code {code}, which this software does not \

@@ -45,7 +45,7 @@ pub use max_size::MaxSize;
 pub use reader::FrameReader;
 
 /// Protocol version; bumped when a change breaks compatibility with deployed peers.
-pub const PROTOCOL_VERSION: u16 = 3;
+pub const PROTOCOL_VERSION: u16 = 4;
 
 /// Description of every wire type, in encoding order. Edit it with every change to a type in
 /// [`host`], [`ctrl`], [`flash`] or [`frame`]; [`SCHEMA_HASH`] is derived from it.
@@ -61,7 +61,7 @@ ctrl: ExecToCtrl=Move(MoveSegment)|Stop|ClockSyncQuery{query_id:u32}|StatusQuery
 ctrl: CtrlState=Idle|Moving|Stopped|Faulted
 ctrl: PositionReport{ctrl_time_us:u64,x_nm:i32,y_nm:i32,active_segment_id:Option<u32>}
 ctrl: CtrlStatus{ctrl_time_us:u64,state:CtrlState,queue_free_slots:u16,queue_len:u16,last_done_segment_id:Option<u32>}
-ctrl: FaultCode=Stall|LimitSwitch|Reboot|QueueOverflow|QueueUnderrun|BadSegment|SegmentLate|ExecutorSilent|Other(u16)|MoveIgnored
+ctrl: FaultCode=Stall|LimitSwitch|Reboot|QueueOverflow|QueueUnderrun|BadSegment|SegmentLate|ExecutorSilent|NeedleOverload|Other(u16)|MoveIgnored
 ctrl: FaultReport{ctrl_time_us:u64,code:FaultCode,segment_id:Option<u32>,x_nm:i32,y_nm:i32}
 ctrl: CtrlToExec=Position(PositionReport)|Status(CtrlStatus)|ClockSyncReply{query_id:u32,ctrl_time_us:u64}|Heartbeat{ctrl_time_us:u64}|Fault(FaultReport)
 host: Hello{protocol_version:u16,schema_hash:u32}

@@ -27,12 +27,16 @@ fn start_point() -> StagePoint {
     StagePoint { x_nm: PROBE_START_NM.0 as i32, y_nm: PROBE_START_NM.1 as i32 }
 }
 
-/// A world whose peg never moves; frames are the probe position the camera saw.
+/// A world whose peg never moves; frames are the probe position the camera saw. With
+/// `wall_x_nm` set, a wall at that x holds the needle's tip: a probe further left bends the
+/// needle by how far it is past the wall, which the world reports.
 #[derive(Default)]
 pub struct StillWorld {
     probe_nm: (i32, i32),
     /// True probe position at every step.
     pub history: Vec<(u64, (i32, i32))>,
+    /// The wall that holds the tip, stage x nm (none: nothing bends the needle).
+    pub wall_x_nm: Option<i32>,
 }
 
 impl World for StillWorld {
@@ -44,6 +48,9 @@ impl World for StillWorld {
     }
     fn render(&mut self, _sim_time_us: u64) -> (i32, i32) {
         self.probe_nm
+    }
+    fn needle_deflection_nm(&self) -> Option<i32> {
+        self.wall_x_nm.map(|w| (w - self.probe_nm.0).max(0))
     }
 }
 
@@ -89,12 +96,21 @@ impl Bench {
         plan: Vec<PlanStep>,
         config: ExecutorConfig,
     ) -> Self {
+        Self::with_configs(seed, faults, plan, config, CtrlConfig::DEFAULT)
+    }
+
+    pub fn with_configs(
+        seed: u64,
+        faults: FaultConfig,
+        plan: Vec<PlanStep>,
+        config: ExecutorConfig,
+        ctrl: CtrlConfig,
+    ) -> Self {
         let rng = SimRng::new(seed);
         let link = LinkConfig::DEFAULT;
         let core = Executor::new(config, MemStore::new()).expect("config");
         let exec_session = rng.fork(10).below(1000) as u16;
-        let node =
-            ControllerNode::new(CtrlConfig::DEFAULT, faults, link, rng.fork(1), 0, PROBE_START_NM);
+        let node = ControllerNode::new(ctrl, faults, link, rng.fork(1), 0, PROBE_START_NM);
         Self {
             now_us: 0,
             exec: Endpoint::new(core, link, exec_session),
@@ -157,7 +173,7 @@ impl Bench {
         self.log.extend(entries);
         self.host_side(now);
         self.transmit(now);
-        self.world.step(now, self.node.probe_nm());
+        self.node.step_world(now, &mut self.world);
     }
 
     fn transmit(&mut self, now: u64) {

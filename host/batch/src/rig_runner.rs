@@ -88,9 +88,7 @@ fn verdict(r: &TrialReport) -> (TrialVerdict, String) {
     let jam = (r.jams > 0).then(|| {
         format!(
             "peg wedged, needle deflected up to {:.0} µm (limit {:.0} µm) in {} jam(s)",
-            r.max_deflection_um,
-            mesopush_rig::plant::truth::NEEDLE_DEFLECTION_LIMIT_UM,
-            r.jams
+            r.max_deflection_um, r.deflection_limit_um, r.jams
         )
     });
     match (r.state, jam) {

@@ -12,7 +12,6 @@ use mesopush_batch::stats::{Loaded, summarize};
 use mesopush_batch::{BatchConfig, BatchSpec, TrialVerdict, merge, report, run, runner_factory};
 use mesopush_core::geom::{Pose, Vec2};
 use mesopush_core::shard::Shard;
-use mesopush_rig::plant::truth::NEEDLE_DEFLECTION_LIMIT_UM;
 use mesopush_sim::Fixture;
 use mesopush_trial::Trial;
 use std::path::{Path, PathBuf};
@@ -59,7 +58,10 @@ fn check_jams(ctx: &str, t: &Trial, dir: &Path, r: &TrialResult) -> bool {
         let depth = peg.signed_distance(&Vec2::new(row[4], row[5]));
         assert!(depth > -1.0, "{ctx}: probe tip {depth:.1} µm inside the peg at t = {}", row[0]);
     }
-    let over = rows.iter().any(|row| row[6] > NEEDLE_DEFLECTION_LIMIT_UM);
+    // The limit the world ran with: its model's, as trial.json records it.
+    let world = t.meta.world.as_ref().expect("a simulated trial records its world");
+    let limit_um = world["resolved_model"]["probe_deflection_limit_um"].as_f64().unwrap();
+    let over = rows.iter().any(|row| row[6] > limit_um);
     let logged = t.events.iter().any(|e| e.kind == "jam");
     assert!(!over || logged, "{ctx}: the needle bent past the limit and no jam was logged");
     if logged && r.verdict == TrialVerdict::Missed {

@@ -85,6 +85,7 @@ pub fn model_for(trial: &IdentTrial, c: &Candidate, settings: &ScoreSettings) ->
         mu_wall: settings.mu_wall,
         probe_radius_um: trial.pusher.max_radius_um(),
         pusher: Some(trial.pusher.clone()),
+        probe_deflection_limit_um: mesopush_sim::model::DEFAULT_PROBE_DEFLECTION_LIMIT_UM,
         effects: Default::default(),
     }
 }

@@ -20,10 +20,17 @@ use serde::{Deserialize, Serialize};
 pub struct SampleOutcome {
     /// The world it ran in.
     pub draw: Draw,
-    /// Whether the peg ended inserted.
+    /// Whether the peg ended inserted (in the goal, the needle within its limit).
     pub inserted: bool,
     /// Whether the probe jammed on the way.
     pub jammed: bool,
+    /// Whether the needle was bent beyond the model's limit (a failure, even with the peg
+    /// in the goal).
+    #[serde(default)]
+    pub overloaded: bool,
+    /// Largest needle deflection of the replay, µm (when the replay ran).
+    #[serde(default)]
+    pub max_deflection_um: Option<f64>,
     /// The simulator's error, when the replay failed (counts as a failure).
     pub error: Option<String>,
     /// Final peg pose (when the replay ran).
@@ -110,6 +117,8 @@ pub fn run_trial(
             draw: d.clone(),
             inserted: r.inserted,
             jammed: !r.events.is_empty(),
+            overloaded: r.overload.is_some(),
+            max_deflection_um: Some(r.max_probe_deflection_um),
             error: None,
             final_pose: Some(r.final_pose),
         },
@@ -117,6 +126,8 @@ pub fn run_trial(
             draw: d.clone(),
             inserted: false,
             jammed: false,
+            overloaded: false,
+            max_deflection_um: None,
             error: Some(e.to_string()),
             final_pose: None,
         },
@@ -223,8 +234,8 @@ pub struct SweepPoint {
 
 /// CSV header of [`write_trials_csv`].
 pub const TRIALS_HEADER: &str = "trial,dx_um,dy_um,dtheta_deg,mu_probe,mu_wall,mu_s1,mu_s2,mu_s3,\
-r1x_um,r1y_um,r2x_um,r2y_um,r3x_um,r3y_um,support_index,inserted,jammed,final_x_um,final_y_um,\
-final_theta_deg,error";
+r1x_um,r1y_um,r2x_um,r2y_um,r3x_um,r3y_um,support_index,inserted,jammed,overloaded,\
+max_deflection_um,final_x_um,final_y_um,final_theta_deg,error";
 
 /// Writes every trial as one CSV row (a pandas user can load it).
 pub fn write_trials_csv(
@@ -240,10 +251,11 @@ pub fn write_trials_csv(
         let [dx, dy, dt] = t.draw.offset;
         let si = t.draw.support_index.map_or(String::new(), |i| i.to_string());
         let err = t.error.as_deref().unwrap_or("").replace([',', '\n'], ";");
+        let defl = t.max_deflection_um.unwrap_or(f64::NAN);
         writeln!(
             w,
             "{i},{dx:.3},{dy:.3},{dt:.4},{:.4},{:.4},{s1:.4},{s2:.4},{s3:.4},{:.2},{:.2},{:.2},{:.2},\
-             {:.2},{:.2},{si},{},{},{:.3},{:.3},{:.4},{err}",
+             {:.2},{:.2},{si},{},{},{},{defl:.3},{:.3},{:.3},{:.4},{err}",
             m.mu_probe,
             m.mu_wall,
             r1[0],
@@ -254,6 +266,7 @@ pub fn write_trials_csv(
             r3[1],
             t.inserted,
             t.jammed,
+            t.overloaded,
             fp[0],
             fp[1],
             fp[2]

@@ -144,7 +144,9 @@ pub struct PushOutcome {
     pub probe_um: Vec2,
     /// Whether the probe jammed (the simulator stopped it for the rest of a move).
     pub jammed: bool,
-    /// Whether the peg ended inserted.
+    /// Whether the needle was bent beyond the model's limit ([`mesopush_sim::needle`]).
+    pub overloaded: bool,
+    /// Whether the peg ended inserted (in the goal, the needle within its limit).
     pub inserted: bool,
 }
 
@@ -173,6 +175,7 @@ pub fn simulate(
         pose: r.final_pose,
         probe_um: Vec2::new(last[0], last[1]),
         jammed: !r.events.is_empty(),
+        overloaded: r.overload.is_some(),
         inserted: r.inserted,
     };
     Ok((outcome, r))

@@ -11,7 +11,7 @@ use crate::robust::{RobustResult, design_robust};
 use crate::robust_settings::RobustSettings;
 use crate::world::UncertainWorld;
 use mesopush_sim::plan::PegStart;
-use mesopush_sim::{Simulator, replay};
+use mesopush_sim::{Overload, Simulator, replay};
 use rand::SeedableRng;
 use std::time::Instant;
 
@@ -58,8 +58,12 @@ pub struct RobustReport {
     pub check: SuccessEstimate,
     /// The check's master seed.
     pub check_seed: u64,
-    /// Whether the nominal replay inserts the peg and keeps the probe clear.
+    /// Whether the nominal replay inserts the peg (within the needle's limit) and keeps the
+    /// probe clear.
     pub nominal_feasible: bool,
+    /// The nominal replay's needle overload, when it bends the needle beyond the model's
+    /// limit: `mesopush plan robust` then refuses the plan.
+    pub nominal_overload: Option<Overload>,
     /// Moves of the nominal replay during which the probe pushes the peg.
     pub pushes: usize,
     /// Wall-clock time of the design (not the check), ms.
@@ -108,12 +112,14 @@ pub fn search_robust(
     };
     let check_seed = search.check_seed.unwrap_or(check_seed_for(search.seed));
     let check = mc.estimate(search.check_samples.max(1), check_seed, &|| ())?;
-    let pushes = pushing_moves(&replay(&mut sim, &design.plan, None)?);
+    let nominal = replay(&mut sim, &design.plan, None)?;
+    let pushes = pushing_moves(&nominal);
     Ok(RobustReport {
         design,
         check,
         check_seed,
         nominal_feasible,
+        nominal_overload: nominal.overload,
         pushes,
         planning_ms,
         time_limited,

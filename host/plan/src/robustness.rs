@@ -36,6 +36,9 @@ pub struct PlanRow {
     pub successes: usize,
     /// Trials in which the probe jammed.
     pub jammed: usize,
+    /// Trials that bent the needle beyond the model's `probe_deflection_limit_um`: failures
+    /// even when the peg ended in the goal.
+    pub overloaded: usize,
     /// Trials whose replay failed in the simulator.
     pub sim_errors: usize,
     /// The plan's probe moves.
@@ -284,6 +287,7 @@ impl Outputs<'_> {
             samples: est.samples,
             successes: est.successes,
             jammed: est.trials.iter().filter(|t| t.jammed).count(),
+            overloaded: est.trials.iter().filter(|t| t.overloaded).count(),
             sim_errors: est.trials.iter().filter(|t| t.error.is_some()).count(),
             moves: plan.moves_um.len(),
             travel_um: plan.travel_um(),

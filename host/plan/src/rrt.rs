@@ -6,8 +6,10 @@
 //! axis and length) and keeps the outcome closest to the target, as in RRTs for systems
 //! that can only be steered through their inputs. Every new node also tries the direct
 //! connection to the goal: a push through the centre of mass that centres the peg on the
-//! channel, then one along −x that slides it in. A branch counts as found only when the
-//! whole plan, replayed from the start, inserts the peg and keeps the probe out of the walls.
+//! channel, then one along −x that slides it in. A push that bends the needle beyond the
+//! model's limit is never an edge. A branch counts as found only when the whole plan,
+//! replayed from the start, inserts the peg (within the needle's limit) and keeps the probe
+//! out of the walls.
 
 use crate::Error;
 use crate::pushes::boundary_locations;
@@ -40,6 +42,9 @@ pub struct RrtResult {
     pub simulated_pushes: usize,
     /// Candidate plans that reached the goal in the tree but failed the whole-plan replay.
     pub rejected_at_verification: usize,
+    /// Simulated pushes (tree edges) rejected because they bent the needle beyond the
+    /// model's `probe_deflection_limit_um` (search and shortcut pass).
+    pub overloaded_pushes: usize,
 }
 
 /// Progress report for a caller's bar; return `false` from the callback to stop early.
@@ -71,6 +76,7 @@ pub fn plan_rrt(
         shortcut_attempts: 0,
         simulated_pushes: 0,
         rejected_at_verification: 0,
+        overloaded_pushes: 0,
     };
     let goal = steer.goal();
     if let Some(leaf) = try_connect(&mut steer, &mut tree, 0, settings, &mut out)? {
@@ -103,6 +109,7 @@ pub fn plan_rrt(
         }
     }
     out.tree_size = tree.nodes.len();
+    out.overloaded_pushes = steer.overloaded_pushes();
     Ok(out)
 }
 
@@ -142,6 +149,7 @@ fn finish(
     let short = shortcut(steer, tree, leaf, s)?;
     out.shortcut_attempts = short.attempts;
     out.pushes = short.tree.branch(short.leaf).len() - 1;
+    out.overloaded_pushes = steer.overloaded_pushes();
     let name = format!("RRT plan ({} pushes, {} iterations)", out.pushes, out.iterations);
     out.plan = Some(short.tree.plan_to(short.leaf, &name, s.speed_um_s));
     Ok(out)

@@ -22,8 +22,9 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// Format version of a [`TrialShard`] file. 2: the core shard shape (`items`; format 1 called
-/// them `trials`).
-pub const SHARD_FORMAT: u32 = 2;
+/// them `trials`). 3: a trial that overloaded the needle is not inserted (`overloaded`);
+/// format-2 files judged without the needle's limit.
+pub const SHARD_FORMAT: u32 = 3;
 
 /// What the merge calls itself in its errors.
 const MERGE: &str = "robustness merge";

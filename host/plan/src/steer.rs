@@ -37,6 +37,7 @@ pub struct Steer<'a> {
     part: ConvexPolygon,
     walls: Vec<ConvexPolygon>,
     goal: Pose,
+    overloaded: usize,
 }
 
 impl<'a> Steer<'a> {
@@ -49,7 +50,12 @@ impl<'a> Steer<'a> {
         let part = sim.model().part.polygon().clone();
         let walls = sim.fixture().walls.clone();
         let goal = goal_pose(sim);
-        Self { sim, locations, settings, part, walls, goal }
+        Self { sim, locations, settings, part, walls, goal, overloaded: 0 }
+    }
+
+    /// Pushes rejected so far because they bent the needle beyond the model's limit.
+    pub fn overloaded_pushes(&self) -> usize {
+        self.overloaded
     }
 
     /// The goal pose the planner steers to: centred on the channel, aligned with it,
@@ -96,7 +102,7 @@ impl<'a> Steer<'a> {
     }
 
     /// Simulates push `ps` of `length_um` from `node`; `None` when it is unusable (no probe
-    /// path, jammed, or the peg hardly moved).
+    /// path, jammed, the needle overloaded, or the peg hardly moved).
     fn extend(
         &mut self,
         node: &Node,
@@ -105,7 +111,8 @@ impl<'a> Steer<'a> {
     ) -> Result<Option<Extension>, Error> {
         let Some((from, moves)) = self.moves_for(node, ps, length_um) else { return Ok(None) };
         let (o, _) = simulate(self.sim, node.pose, from, &moves)?;
-        if o.jammed || pose_distance(&o.pose, &node.pose) < 2.0 {
+        self.overloaded += usize::from(o.overloaded);
+        if o.jammed || o.overloaded || pose_distance(&o.pose, &node.pose) < 2.0 {
             return Ok(None);
         }
         let new = Node {

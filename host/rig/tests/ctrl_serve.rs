@@ -29,7 +29,9 @@ impl World for Still {
 fn an_executor_that_stops_reading_does_not_stop_the_controller() {
     let (master, mut slave) = TTYPort::pair().expect("a pty");
     let rng = SimRng::new(4);
-    let node = controller(FaultConfig::NONE, rng.fork(1), 0, (1_000_000, 1_000_000));
+    let limit_um = mesopush_sim::Model::default().probe_deflection_limit_um;
+    let node = controller(FaultConfig::NONE, rng.fork(1), 0, (1_000_000, 1_000_000), limit_um)
+        .expect("a valid limit");
     let camera = SimCamera::new(1_000_000_000, 0, 1_000_000_000, rng.fork(6), FaultConfig::NONE);
     let mut ctrl =
         ServedController::new(ServedLine::Pty(master), Plant::Native(Box::new(node)), camera)

@@ -13,8 +13,12 @@ use rand::SeedableRng;
 const OFFSET_UM: [f64; 2] = [1000.0, 1000.0];
 
 fn world(peg: Pose, probe_um: Vec2) -> RigWorld {
+    world_with(Model::default(), peg, probe_um)
+}
+
+fn world_with(model: Model, peg: Pose, probe_um: Vec2) -> RigWorld {
     let setup = WorldSetup {
-        model: Model::default(),
+        model,
         peg_start: peg,
         stage_offset_um: Vec2::new(OFFSET_UM[0], OFFSET_UM[1]),
         render: RenderSettings::default(),
@@ -64,5 +68,41 @@ fn a_push_that_reverses_between_exposures_moves_the_peg_all_the_way() {
             d < 0.3 && (got.theta_rad - want.theta_rad).abs() < 1e-3,
             "push {push_um} µm: world peg {got:?}, simulator {want:?} ({d:.2} µm apart)"
         );
+    }
+}
+
+/// The world's needle limit is its model's `probe_deflection_limit_um` (issue 19: one limit,
+/// not a second constant): a peg pushed against the wide channel's upper wall (y = 300 µm)
+/// and the stage going on 150 µm past the stop bends the needle 150 µm (geometry: the tip
+/// rests on the held peg's edge), which the world reports to the controller in nm, and logs
+/// as a jam beyond a 50 µm limit but not within a 200 µm one.
+#[test]
+fn the_world_reports_the_needles_deflection_and_logs_jams_against_its_models_limit() {
+    // Supports symmetric about the push's line: the peg translates straight up.
+    let support = mesopush_sim::SupportDistribution {
+        points_um: [[-300.0, -200.0], [300.0, -200.0], [0.0, 300.0]],
+        mu_surface: [0.3; 3],
+    };
+    let peg = Pose::new(2330.0, 300.0 + 492.5 + 100.0, 0.0);
+    let start = Vec2::new(2330.0, peg.y_um + 492.5 + 12.5 + 40.0);
+    let end = start - Vec2::new(0.0, 40.0 + 100.0 + 150.0);
+    for (limit_um, jams) in [(50.0, 1), (200.0, 0)] {
+        let model = Model {
+            support: support.clone(),
+            probe_deflection_limit_um: limit_um,
+            ..Model::default()
+        };
+        let mut w = world_with(model, peg, start);
+        let mut t_us = 0;
+        drive(&mut w, &mut t_us, start, end);
+        assert_eq!(w.deflection_limit_um(), limit_um);
+        let p = w.peg();
+        assert!((p.y_um - (300.0 + 492.5)).abs() < 1.0, "the wall holds the peg: {p:?}");
+        let d_nm = w.needle_deflection_nm().expect("the world reports its needle");
+        assert!((d_nm - 150_000).abs() < 1_000, "limit {limit_um}: {d_nm} nm");
+        // The jam log notes the deflection at every physics chord (a simulator step, 5 µm).
+        let max = w.max_deflection_um();
+        assert!((144.0..=151.0).contains(&max), "limit {limit_um}: max {max} µm");
+        assert_eq!(w.jam_events().len(), jams, "limit {limit_um} µm");
     }
 }

@@ -16,6 +16,15 @@ pub const PEG_LENGTH_UM: f64 = 1615.0;
 /// Width of the default peg, µm.
 pub const PEG_WIDTH_UM: f64 = 985.0;
 
+/// Default needle deflection limit, µm ([`Model::probe_deflection_limit_um`]; why 50 is
+/// explained there). The one statement of the default: the model's serde default, the
+/// simulator's overload verdict and the rig's jam log and controller all read it through
+/// the model.
+pub const DEFAULT_PROBE_DEFLECTION_LIMIT_UM: f64 = 50.0;
+
+/// Largest needle deflection limit a model may set, µm (the part vertices' range).
+pub const MAX_PROBE_DEFLECTION_LIMIT_UM: f64 = 1e5;
+
 /// A rigid planar part: a convex polygon in its body frame with the centre of mass at the
 /// origin.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -95,10 +104,34 @@ pub struct Model {
     /// single disc of `probe_radius_um` (a two-finger hand, say). Absent: one disc.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pusher: Option<Pusher>,
+    /// How far the needle may bend, µm: the largest probe deflection (the simulator's
+    /// compliance × contact force, `probe_compliance_um` in [`crate::SimSettings`] or the
+    /// `probe_compliance_um_per_weight` effect) a plan may cause. A replay that exceeds it
+    /// is *overloaded* ([`crate::needle`]): never inserted, refused by `plan`, a failure in
+    /// `robustness`; the rig's world logs a jam beyond it and its controller faults
+    /// (`NeedleOverload`). As a force: limit / compliance part weights (100 at the default
+    /// 0.5 µm per weight); a rigid probe (compliance 0) never bends, so nothing binds.
+    /// Allowed (0, 1e5] µm. Default [`DEFAULT_PROBE_DEFLECTION_LIMIT_UM`] = 50.
+    ///
+    /// Why 50 µm for the paper's 25 µm tungsten needle: the acrylic peg (1615 × 985 µm,
+    /// half the 3.175 mm fixture's thickness, 1.19 g/cm³) weighs 3.0 mg, 29.5 µN, and the
+    /// simulator's 0.5 µm of deflection per part weight is the compliance L³/(3EI) of a
+    /// 25 µm tungsten cylinder (E = 411 GPa) 0.74 mm long — the slender end of an etched
+    /// probe. Such a tip reaches the yield stress of drawn tungsten wire (≈ 1.5 GPa; its
+    /// tensile strength is 2–4 GPa) at a tip deflection of (2/3)(σ/E)L²/d ≈ 53 µm, under
+    /// F = σπd³/(32L) ≈ 3.1 mN ≈ 105 part weights. Beyond that the needle bends for good
+    /// (and a plan that counts on hundreds of part weights pushes through a bent tip); 50
+    /// µm keeps it elastic. A stiffer or longer probe: set it from its own beam numbers.
+    #[serde(default = "default_probe_deflection_limit_um")]
+    pub probe_deflection_limit_um: f64,
     /// Effects beyond the nominal model (`[effects]` table; see [`crate::effects`]). Absent
     /// from a TOML = all off, and then results are bit-identical to the nominal model's.
     #[serde(default, skip_serializing_if = "Effects::is_none")]
     pub effects: Effects,
+}
+
+fn default_probe_deflection_limit_um() -> f64 {
+    DEFAULT_PROBE_DEFLECTION_LIMIT_UM
 }
 
 impl Default for Model {
@@ -114,6 +147,7 @@ impl Default for Model {
             mu_wall: 0.25,
             probe_radius_um: 12.5,
             pusher: None,
+            probe_deflection_limit_um: DEFAULT_PROBE_DEFLECTION_LIMIT_UM,
             effects: Effects::default(),
         }
     }
@@ -139,6 +173,11 @@ impl Model {
             all_finite_in(&field, &[v.x, v.y], Allowed::closed(-1e5, 1e5, "µm"))?;
         }
         finite_in("model probe_radius_um", r, Allowed::closed(0.0, 1e4, "µm"))?;
+        finite_in(
+            "model probe_deflection_limit_um",
+            self.probe_deflection_limit_um,
+            Allowed::positive_to(MAX_PROBE_DEFLECTION_LIMIT_UM, "µm"),
+        )?;
         if let Some(p) = &self.pusher {
             p.validate()?;
         }
@@ -186,6 +225,34 @@ mod tests {
         let spec = "vertices_um = [[0,0],[200,0],[300,100],[200,200],[0,200]]";
         let part: Part = toml::from_str(spec).unwrap();
         assert!(part.polygon().centroid().norm() < 1e-9);
+    }
+
+    /// A needle limit of zero, below zero or not a number would make every push (or none)
+    /// an overload: validation refuses it, naming the field, the value and the range.
+    #[test]
+    fn a_needle_limit_outside_its_range_is_refused_by_name_value_and_range() {
+        for (v, shown) in [(0.0, "= 0:"), (-5.0, "= -5:"), (f64::NAN, "= NaN:"), (2e5, "= 200000:")]
+        {
+            let m = Model { probe_deflection_limit_um: v, ..Model::default() };
+            let e = m.validate().unwrap_err().to_string();
+            assert!(e.contains("probe_deflection_limit_um"), "{v}: the field is named: {e}");
+            assert!(e.contains(shown), "{v}: the value is named: {e}");
+            assert!(e.contains("(0, 100000] µm"), "{v}: the range is named: {e}");
+        }
+        Model { probe_deflection_limit_um: 120.0, ..Model::default() }.validate().unwrap();
+    }
+
+    #[test]
+    fn a_model_file_without_a_needle_limit_gets_fifty_micrometres() {
+        let text = toml::to_string_pretty(&Model::default()).unwrap();
+        assert!(text.contains("probe_deflection_limit_um = 50.0"), "written out: {text}");
+        let without: String = text
+            .lines()
+            .filter(|l| !l.starts_with("probe_deflection_limit_um"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let m: Model = toml::from_str(&without).unwrap();
+        assert_eq!(m.probe_deflection_limit_um, 50.0);
     }
 
     #[test]

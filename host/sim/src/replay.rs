@@ -1,7 +1,10 @@
 //! Replays a plan through the simulator: probe moves cut into steps of probe travel (one jump
-//! where the probe is clear of the peg), the trajectory recorded, the verdict judged.
+//! where the probe is clear of the peg), the trajectory recorded, the verdict judged: inserted
+//! only when the peg ends in the goal *and* the needle stayed within its limit
+//! ([`crate::needle`]).
 
 use super::advance::{SegmentEnd, advance};
+use super::needle::{NeedleWatch, Overload};
 use super::plan::Plan;
 use super::stepper::{SimState, Simulator, StepInfo, contact_label};
 use crate::Error;
@@ -44,8 +47,11 @@ pub struct SimEvent {
 pub struct Replay {
     /// Every step, in order (the start state first).
     pub samples: Vec<Sample>,
-    /// Whether the peg ended inside the goal (narrow channel).
+    /// The verdict: the peg ended inside the goal (narrow channel) and the needle was never
+    /// overloaded (`overload` is `None`).
     pub inserted: bool,
+    /// Whether the peg ended inside the goal, overloaded or not.
+    pub peg_in_goal: bool,
     /// Final peg pose.
     pub final_pose: Pose,
     /// Time steps taken (LCP solves plus free-space jumps).
@@ -54,9 +60,18 @@ pub struct Replay {
     pub lcp_solves: usize,
     /// Largest penetration of the peg into a wall seen after any step, µm.
     pub max_penetration_um: f64,
-    /// Largest probe needle deflection (compliance × force), µm: how far the commanded tip
+    /// Largest probe needle deflection (compliance × force; after a jam, plus the travel the
+    /// probe was commanded past the point where it stopped), µm: how far the commanded tip
     /// position overlaps the peg because the needle bends.
     pub max_probe_deflection_um: f64,
+    /// Largest probe normal force, part weights.
+    pub max_probe_force_weights: f64,
+    /// The needle's deflection limit the replay was judged against, µm (the model's
+    /// `probe_deflection_limit_um`).
+    pub probe_deflection_limit_um: f64,
+    /// Where and how far the needle was bent beyond its limit, when it was: the plan is then
+    /// not inserted, whatever the final pose.
+    pub overload: Option<Overload>,
     /// Jams and other events.
     pub events: Vec<SimEvent>,
 }
@@ -86,13 +101,18 @@ pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<R
     let mut out = Replay {
         samples: vec![sample(0.0, 0, &st, &StepInfo::default())],
         inserted: false,
+        peg_in_goal: false,
         final_pose: st.peg,
         steps: 0,
         lcp_solves: 0,
         max_penetration_um: 0.0,
         max_probe_deflection_um: 0.0,
+        max_probe_force_weights: 0.0,
+        probe_deflection_limit_um: sim.model().probe_deflection_limit_um,
+        overload: None,
         events: Vec::new(),
     };
+    let mut needle = NeedleWatch::new(out.probe_deflection_limit_um);
     let mut budget = sim.settings().max_steps;
     let mut travel_um = 0.0;
     for (mi, [dx, dy]) in plan.moves_um.iter().enumerate() {
@@ -102,19 +122,27 @@ pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<R
             out.steps += 1;
             out.lcp_solves += usize::from(info.solved_lcp);
             out.max_penetration_um = out.max_penetration_um.max(info.penetration_um);
-            out.max_probe_deflection_um = out.max_probe_deflection_um.max(info.probe_deflection_um);
-            out.samples.push(sample((travel_um + done) / speed, mi, st, info));
+            let t_s = (travel_um + done) / speed;
+            needle.note(mi, t_s, info.probe_deflection_um, info.probe_force);
+            out.samples.push(sample(t_s, mi, st, info));
         })?;
         if let SegmentEnd::Jammed { done_um, cause } = end {
+            let t_s = (travel_um + done_um) / speed;
+            let compliance = sim.settings().probe_compliance_um;
+            needle.note_jam(mi, t_s, delta.norm() - done_um, compliance);
             out.events.push(SimEvent {
-                t_s: (travel_um + done_um) / speed,
+                t_s,
                 move_index: mi,
                 what: format!("jammed: probe stopped for the rest of the move ({cause})"),
             });
         }
         travel_um += delta.norm();
     }
-    out.inserted = sim.fixture().inserted(&st.peg.position());
+    out.max_probe_deflection_um = needle.peak_deflection_um();
+    out.max_probe_force_weights = needle.max_force_weights();
+    out.overload = needle.overload();
+    out.peg_in_goal = sim.fixture().inserted(&st.peg.position());
+    out.inserted = out.peg_in_goal && out.overload.is_none();
     out.final_pose = st.peg;
     Ok(out)
 }

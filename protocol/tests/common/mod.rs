@@ -291,6 +291,7 @@ pub fn ctrl_to_exec() -> Vec<(String, CtrlToExec)> {
         FaultCode::BadSegment,
         FaultCode::SegmentLate,
         FaultCode::ExecutorSilent,
+        FaultCode::NeedleOverload,
         FaultCode::Other(0x1234),
         FaultCode::MoveIgnored,
     ];

@@ -132,6 +132,7 @@ pub fn fault_code() -> impl Strategy<Value = FaultCode> {
         Just(FaultCode::BadSegment),
         Just(FaultCode::SegmentLate),
         Just(FaultCode::ExecutorSilent),
+        Just(FaultCode::NeedleOverload),
         any::<u16>().prop_map(FaultCode::Other),
         Just(FaultCode::MoveIgnored),
     ]

@@ -28,6 +28,8 @@ pub(crate) struct Finished {
     pub sim_time_s: f64,
     /// The world's camera latency, µs: a frame stamped `t` shows the truth at `t − latency`.
     pub camera_latency_us: i64,
+    /// The world's needle deflection limit, µm (its model's `probe_deflection_limit_um`).
+    pub deflection_limit_um: f64,
 }
 
 /// The peg at rest: the last unflagged frame exposed after the trial ended. Earlier frames
@@ -85,7 +87,7 @@ pub(crate) fn finish(
         .collect();
     let mut writer = rec.writer;
     let t0 = rec.t0_us.unwrap_or(0) as i64;
-    let jams = write_jams(&mut writer, truth, t0)?;
+    let jams = write_jams(&mut writer, truth, t0, done.deflection_limit_um)?;
     let max_deflection_um = truth.iter().map(|s| s.deflection_um).fold(0.0, f64::max);
     let verdict = format!(
         "{}; tracking error against the truth ≤ {err_um:.2} µm over {compared} frames",
@@ -118,6 +120,7 @@ pub(crate) fn finish(
         wall_time_s: 0.0,
         jams,
         max_deflection_um,
+        deflection_limit_um: done.deflection_limit_um,
         segments_applied: done.applied.0,
         segments_expected: done.segments_expected,
         segments_in_order: done.applied.1,

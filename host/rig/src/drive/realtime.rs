@@ -131,7 +131,8 @@ pub fn run_realtime(
     let (rec_tx, rec_rx) = bounded(256);
     let recorder = prep.recorder;
     let rec = std::thread::spawn(move || recorder.run(rec_rx));
-    let node = controller(faults, prep.rng.fork(1), clock.now_us(), prep.probe_start_nm);
+    let limit_um = prep.world.deflection_limit_um();
+    let node = controller(faults, prep.rng.fork(1), clock.now_us(), prep.probe_start_nm, limit_um)?;
     let c = prep.camera;
     let camera = SimCamera::new(c.period_us, c.readout_us, c.start_us, prep.rng.fork(6), faults);
     let mut ctrl =
@@ -160,6 +161,7 @@ pub fn run_realtime(
         records_lost: lost,
         sim_time_s: us_to_s(clock.now_us()),
         camera_latency_us: world.camera_latency_us(),
+        deflection_limit_um: world.deflection_limit_um(),
     };
     finish(out_dir, recorded, world.truth(), world.fixture(), done)
 }

@@ -21,7 +21,7 @@ use mesopush_executor::shell::controller::ControllerKind;
 use mesopush_executor::{CameraFrame, ExecutorConfig, LogEvent};
 use mesopush_firmware_sim::camera::SimCamera;
 use mesopush_firmware_sim::line::SimLine;
-use mesopush_firmware_sim::{CtrlEvent, FaultConfig, NodeEvent, SimRng, World};
+use mesopush_firmware_sim::{CtrlEvent, FaultConfig, NodeEvent, SimRng};
 use mesopush_protocol::{FRAME_BUF_LEN, LinkStats};
 
 /// Simulation step, µs.
@@ -76,9 +76,10 @@ impl SimLoop {
     ) -> Result<Self, Error> {
         let session = 1 + rng.fork(10).below(1000) as u16;
         let exec = endpoint_for(kind, config, session)?;
+        let limit_um = world.deflection_limit_um();
         let (node, line) = match kind {
             ControllerKind::Native => {
-                let node = controller(faults, rng.fork(1), 0, probe_start_nm);
+                let node = controller(faults, rng.fork(1), 0, probe_start_nm, limit_um)?;
                 (Plant::Native(Box::new(node)), CtrlLine::Pty(PtyLine::open()?))
             }
             k => {
@@ -168,7 +169,7 @@ impl SimLoop {
         self.exec.poll(now, &mut log).map_err(full)?;
         self.host.poll(now)?;
         self.transmit(now)?;
-        self.world.step(now, self.node.probe_nm());
+        self.node.step_world(now, &mut self.world);
         self.forward(now, frame_msg)
     }
 

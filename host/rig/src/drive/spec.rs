@@ -82,12 +82,14 @@ pub struct TrialReport {
     pub sim_time_s: f64,
     /// Wall-clock time, s.
     pub wall_time_s: f64,
-    /// Jam episodes in the world: the needle deflected beyond
-    /// [`crate::plant::truth::NEEDLE_DEFLECTION_LIMIT_UM`] against a wedged peg (simulation
-    /// only; logged as `jam` events).
+    /// Jam episodes in the world: the needle deflected beyond `deflection_limit_um` against
+    /// a wedged peg (simulation only; logged as `jam` events; the controller faults
+    /// `NeedleOverload` beyond the same limit).
     pub jams: u32,
     /// Largest needle deflection seen at an exposure, µm (simulation only).
     pub max_deflection_um: f64,
+    /// The needle's deflection limit, µm: the world model's `probe_deflection_limit_um`.
+    pub deflection_limit_um: f64,
     /// Segments the controller applied.
     pub segments_applied: u64,
     /// Segments the plan consists of at the setpoint rate.

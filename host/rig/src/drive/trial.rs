@@ -86,6 +86,7 @@ fn run_simulated(
         records_lost: 0,
         sim_time_s,
         camera_latency_us: world.camera_latency_us(),
+        deflection_limit_um: world.deflection_limit_um(),
     };
     let mut report = finish(out_dir, recorded, world.truth(), world.fixture(), done)?;
     classes.controller.detected = report.faults_detected;

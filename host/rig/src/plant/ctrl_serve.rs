@@ -185,7 +185,7 @@ impl ServedController {
                 }
             }
         }
-        world.step(now_us, self.node.probe_nm());
+        self.node.step_world(now_us, world);
         Ok((state, self.camera.poll(now_us, world)))
     }
 

@@ -164,9 +164,11 @@ fn serve_controller(
     let [ox, oy] = opts.world.spec.stage.offset_um;
     let p = opts.plan.probe_start() + Vec2::new(ox, oy);
     let start_nm = (um_to_nm("stage start x", p.x)?, um_to_nm("stage start y", p.y)?);
+    let limit_um = opts.world.model.probe_deflection_limit_um;
     let node = match opts.controller {
         ControllerKind::Native => {
-            Plant::Native(Box::new(controller(faults, rng.fork(1), clock.now_us(), start_nm)))
+            let node = controller(faults, rng.fork(1), clock.now_us(), start_nm, limit_um)?;
+            Plant::Native(Box::new(node))
         }
         kind => {
             let seed = rng.fork(1).below(u64::MAX);

@@ -29,6 +29,10 @@ impl World for Deferred<'_> {
         self.world.step(sim_time_us, probe_nm)
     }
 
+    fn needle_deflection_nm(&self) -> Option<i32> {
+        self.world.needle_deflection_nm()
+    }
+
     fn render(&mut self, sim_time_us: u64) -> TruthSample {
         // As `RigWorld::render`: the snapshot at the exposure (taken when a step crossed it).
         let truth = self.world.truth();

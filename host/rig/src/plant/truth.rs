@@ -5,8 +5,10 @@
 //!
 //! Jams: when the world's simulator finds the peg wedged, the probe point stops while the
 //! stage goes on and the 25 µm needle bends. When the needle's deflection (commanded tip −
-//! resting tip) exceeds [`NEEDLE_DEFLECTION_LIMIT_UM`] the world logs a [`JamEvent`], one per
-//! episode: the episode ends when the deflection falls below half the limit.
+//! resting tip) exceeds the limit — the world model's `probe_deflection_limit_um`, the same
+//! number the host's planner and the controller's `NeedleOverload` fault use — the world logs
+//! a [`JamEvent`], one per episode: the episode ends when the deflection falls below half the
+//! limit.
 
 use mesopush_core::geom::{Pose, Vec2};
 
@@ -27,14 +29,7 @@ pub struct TruthSample {
     pub jams: u32,
 }
 
-/// Needle deflection beyond which the world logs a jam, µm. A 25 µm tungsten tip bends
-/// elastically by a few tip diameters; beyond about 50 µm it would slip over the peg (which
-/// is only half the fixture's depth) or the stage would stall on the force, so the push no
-/// longer does what the plan means. The world (a simulator) cannot model either; it records
-/// the episode so the trial's verdict says why the peg did not go in.
-pub const NEEDLE_DEFLECTION_LIMIT_UM: f64 = 50.0;
-
-/// One jam episode: the needle deflected beyond [`NEEDLE_DEFLECTION_LIMIT_UM`].
+/// One jam episode: the needle deflected beyond the world model's limit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JamEvent {
     /// When the deflection first exceeded the limit, µs (simulation clock).
@@ -46,9 +41,13 @@ pub struct JamEvent {
 }
 
 /// The jam episodes so far and the largest deflection, fed the needle's deflection after
-/// every move.
-#[derive(Debug, Clone, Default)]
+/// every move. The world (a simulator) cannot model what a real needle bent past its limit
+/// does (bend for good, slip over the peg, stall the stage); it records the episode so the
+/// trial's verdict says why the peg did not go in, and the controller faults on it.
+#[derive(Debug, Clone)]
 pub struct JamLog {
+    /// The needle's deflection limit, µm.
+    limit_um: f64,
     events: Vec<JamEvent>,
     /// In an episode (deflection above the limit, not yet below half of it).
     in_jam: bool,
@@ -56,6 +55,17 @@ pub struct JamLog {
 }
 
 impl JamLog {
+    /// An empty log for a needle whose deflection limit is `limit_um` (the world model's
+    /// `probe_deflection_limit_um`).
+    pub fn new(limit_um: f64) -> Self {
+        Self { limit_um, events: Vec::new(), in_jam: false, max_deflection_um: 0.0 }
+    }
+
+    /// The needle's deflection limit, µm.
+    pub fn limit_um(&self) -> f64 {
+        self.limit_um
+    }
+
     /// Notes the deflection `d_um` at `t_us` with the peg at `peg`.
     pub fn note(&mut self, t_us: u64, d_um: f64, peg: Pose) {
         self.max_deflection_um = self.max_deflection_um.max(d_um);
@@ -63,8 +73,8 @@ impl JamLog {
             if let Some(e) = self.events.last_mut() {
                 e.peak_deflection_um = e.peak_deflection_um.max(d_um);
             }
-            self.in_jam = d_um >= 0.5 * NEEDLE_DEFLECTION_LIMIT_UM;
-        } else if d_um > NEEDLE_DEFLECTION_LIMIT_UM {
+            self.in_jam = d_um >= 0.5 * self.limit_um;
+        } else if d_um > self.limit_um {
             self.in_jam = true;
             self.events.push(JamEvent { t_us, peak_deflection_um: d_um, peg });
         }

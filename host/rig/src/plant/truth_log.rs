@@ -2,7 +2,7 @@
 //! peg pose, probe tip and needle deflection at every exposure, and a `jam` event for every
 //! jam episode of the world (the peg wedged and the needle bent beyond the limit).
 
-use super::truth::{NEEDLE_DEFLECTION_LIMIT_UM, TruthSample};
+use super::truth::TruthSample;
 use crate::Error;
 use mesopush_trial::{EventRow, TrialWriter};
 use std::path::Path;
@@ -23,11 +23,13 @@ pub(crate) fn write_truth(dir: &Path, truth: &[TruthSample], t0_us: u64) -> Resu
 }
 
 /// A `jam` event for every jam episode the world began (at the first exposure that shows
-/// it, with the largest deflection filmed during it); returns the number of episodes.
+/// it, with the largest deflection filmed during it, against the needle's `limit_um`);
+/// returns the number of episodes.
 pub(crate) fn write_jams(
     writer: &mut TrialWriter,
     truth: &[TruthSample],
     t0_us: i64,
+    limit_um: f64,
 ) -> Result<u32, Error> {
     let mut seen = 0;
     for (i, s) in truth.iter().enumerate() {
@@ -42,7 +44,7 @@ pub(crate) fn write_jams(
             .fold(s.deflection_um, f64::max);
         let p = s.peg;
         let detail = format!(
-            "needle deflected {peak:.0} µm (limit {NEEDLE_DEFLECTION_LIMIT_UM:.0} µm): peg wedged \
+            "needle deflected {peak:.0} µm (limit {limit_um:.0} µm): peg wedged \
              at ({:.0}, {:.0}) µm, {:.1}°",
             p.x_um,
             p.y_um,

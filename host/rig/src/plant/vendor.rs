@@ -10,11 +10,11 @@
 use super::controller::Controller;
 use crate::Error;
 use mesopush_executor::shell::controller::ControllerKind;
-use mesopush_firmware_sim::NodeEvent;
 use mesopush_firmware_sim::vendor::{
     Card, Mp285, Mp285Settings, Mpc200, Mpc200Settings, Scientifica, ScientificaSettings, Sensapex,
     SensapexSettings, VendorController,
 };
+use mesopush_firmware_sim::{NodeEvent, PegPose, World};
 
 /// An emulated vendor controller.
 pub type Emulator = Box<dyn VendorController + Send>;
@@ -107,6 +107,16 @@ impl Plant {
                 let n = v.0.transmit(now_us, buf)?;
                 Some(&buf[..n])
             }
+        }
+    }
+
+    /// Moves the world to the stage's true position at `now_us` and returns the peg's pose.
+    /// The native controller also senses the needle's deflection the world reports (and
+    /// faults beyond its limit); the commercial controllers have no such sensor.
+    pub fn step_world<W: World>(&mut self, now_us: u64, world: &mut W) -> PegPose {
+        match self {
+            Self::Native(n) => n.step_world(now_us, world),
+            Self::Vendor(v) => world.step(now_us, v.0.probe_nm()),
         }
     }
 

@@ -30,7 +30,9 @@
 //! position (once the command has moved a simulator step since the failed attempt), so the
 //! tip follows again as soon as the command pulls away. The needle's deflection (commanded
 //! tip − resting tip) is recorded at every exposure and its jam episodes logged
-//! ([`super::truth::JamLog`]); the camera renders the tip where it actually is.
+//! ([`super::truth::JamLog`], beyond the world model's `probe_deflection_limit_um`); the
+//! controller senses it too ([`World::needle_deflection_nm`]) and faults beyond the same
+//! limit. The camera renders the tip where it actually is.
 //!
 //! Rendering off the controller's loop (on a renderer thread) is the painter module's; the
 //! world itself knows nothing of threads.
@@ -41,7 +43,7 @@ use crate::Error;
 use image::GrayImage;
 use mesopush_core::geom::{ConvexPolygon, Pose, Vec2, point_segment_distance};
 use mesopush_firmware_sim::{PegPose, World};
-use mesopush_protocol::units::nm_to_um;
+use mesopush_protocol::units::{nm_to_um, um_to_nm};
 use mesopush_sim::advance::{SegmentEnd, advance};
 use mesopush_sim::effects::{Backlash, Effects, stamp_with_latency_us};
 use mesopush_sim::{Fixture, SimSettings, SimState, Simulator};
@@ -120,6 +122,7 @@ impl RigWorld {
         let renderer = Renderer::new(setup.render.clone(), &fixture.walls)?;
         let peg_body = setup.model.part.polygon().clone();
         let probe_radius_um = setup.model.probe_radius_um;
+        let jams = JamLog::new(setup.model.probe_deflection_limit_um);
         let sim = Simulator::new(setup.model, fixture, SimSettings::default())?;
         let st = SimState::new(setup.peg_start, probe_start_um);
         if sim.probe_gap_um(&st) < 0.0 {
@@ -136,7 +139,7 @@ impl RigWorld {
             next_exposure_us: setup.camera_start_us,
             period_us: setup.camera_period_us.max(1),
             truth: Vec::new(),
-            jams: JamLog::default(),
+            jams,
             blocked_at: None,
             commanded_um: probe_start_um,
             backlash: Backlash::new(setup.effects.backlash_um),
@@ -152,8 +155,7 @@ impl RigWorld {
         &self.truth
     }
 
-    /// Jam episodes so far (needle deflection beyond
-    /// [`super::truth::NEEDLE_DEFLECTION_LIMIT_UM`]).
+    /// Jam episodes so far (needle deflection beyond [`RigWorld::deflection_limit_um`]).
     pub fn jam_events(&self) -> &[JamEvent] {
         self.jams.events()
     }
@@ -161,6 +163,11 @@ impl RigWorld {
     /// Largest needle deflection so far, µm.
     pub fn max_deflection_um(&self) -> f64 {
         self.jams.max_deflection_um()
+    }
+
+    /// The needle's deflection limit, µm: the world model's `probe_deflection_limit_um`.
+    pub fn deflection_limit_um(&self) -> f64 {
+        self.jams.limit_um()
     }
 
     /// Where the needle's tip is: resting against the peg (see [`super::needle::resting_tip`]).
@@ -335,6 +342,12 @@ impl World for RigWorld {
         self.last = Some((sim_time_us, target));
         let p = self.st.peg;
         PegPose { x_um: p.x_um, y_um: p.y_um, theta_rad: p.theta_rad }
+    }
+
+    /// The needle's deflection after the last step, nm (beyond the wire's range: the
+    /// largest, which any limit exceeds).
+    fn needle_deflection_nm(&self) -> Option<i32> {
+        Some(um_to_nm("needle deflection", self.deflection_um()).unwrap_or(i32::MAX))
     }
 
     fn render(&mut self, sim_time_us: u64) -> WorldFrame {

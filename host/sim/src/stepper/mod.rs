@@ -211,6 +211,11 @@ impl Simulator {
     pub fn settings(&self) -> &SimSettings {
         &self.settings
     }
+    /// The needle's limit as a force, part weights: the model's deflection limit over the
+    /// probe's compliance (infinite for a rigid probe, which never bends).
+    pub fn probe_force_limit_weights(&self) -> f64 {
+        self.model.probe_deflection_limit_um / self.settings.probe_compliance_um
+    }
 
     /// Smallest gap between a pusher disc and the peg, µm (negative: penetration).
     pub fn probe_gap_um(&self, state: &SimState) -> f64 {

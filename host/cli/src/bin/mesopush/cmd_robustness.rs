@@ -211,13 +211,15 @@ fn print(rows: &[PlanRow], json: bool, markdown: bool) {
         }
         println!("{} ({}):", r.name, r.plan.display());
         println!(
-            "  success {}/{} = {:.1} % (95 % Wilson interval {:.1}–{:.1} %), jammed {}, simulator errors {}",
+            "  success {}/{} = {:.1} % (95 % Wilson interval {:.1}–{:.1} %), jammed {}, \
+             needle overloaded {}, simulator errors {}",
             r.successes,
             r.samples,
             100.0 * r.success_rate,
             100.0 * r.ci_low,
             100.0 * r.ci_high,
             r.jammed,
+            r.overloaded,
             r.sim_errors
         );
         println!("  failures figure: {}", r.failures_figure.display());

@@ -1,5 +1,7 @@
 //! `mesopush sim`: replay a plan in the quasi-static simulator, write the trajectory CSV and
-//! the Fig. 6-style figure, print the verdict (or `--json`), or time it (`--bench`).
+//! the Fig. 6-style figure, print the verdict (or `--json`), or time it (`--bench`). A plan
+//! that bends the needle beyond the model's `probe_deflection_limit_um` is a negative
+//! verdict (exit 1, after the outputs are written): it must not run on a rig.
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -83,24 +85,39 @@ pub(crate) fn run(args: &SimArgs) -> Result<()> {
     for f in &figs {
         figure(&sim, &plan, &result, f)?;
     }
-    print_result(&result, &csv, &figs, args.json);
-    Ok(())
+    print_result(&result, sim.probe_force_limit_weights(), &csv, &figs, args.json);
+    match &result.overload {
+        Some(o) => Err(crate::verdict::Negative(o.to_string()).into()),
+        None => Ok(()),
+    }
 }
 
 fn figure(sim: &Simulator, plan: &Plan, r: &Replay, path: &std::path::Path) -> Result<()> {
     Ok(mesopush_plan::figures::draw_replay(sim, plan, r, path)?)
 }
 
-fn print_result(r: &Replay, csv: &std::path::Path, figs: &[PathBuf], as_json: bool) {
+fn print_result(
+    r: &Replay,
+    force_limit_weights: f64,
+    csv: &std::path::Path,
+    figs: &[PathBuf],
+    as_json: bool,
+) {
     let p = r.final_pose;
     if as_json {
         let v = json!({
             "inserted": r.inserted,
+            "peg_in_goal": r.peg_in_goal,
+            "overloaded": r.overload.is_some(),
+            "overload": r.overload,
             "final_pose": {"x_um": p.x_um, "y_um": p.y_um, "theta_rad": p.theta_rad},
             "steps": r.steps,
             "lcp_solves": r.lcp_solves,
             "max_penetration_um": r.max_penetration_um,
             "max_probe_deflection_um": r.max_probe_deflection_um,
+            "max_probe_force_weights": r.max_probe_force_weights,
+            "probe_deflection_limit_um": r.probe_deflection_limit_um,
+            "probe_force_limit_weights": force_limit_weights,
             "events": r.events,
             "trajectory_csv": csv,
             "figures": figs,
@@ -108,7 +125,13 @@ fn print_result(r: &Replay, csv: &std::path::Path, figs: &[PathBuf], as_json: bo
         println!("{v}");
         return;
     }
-    println!("inserted: {}", if r.inserted { "yes" } else { "NO" });
+    let verdict = match (&r.overload, r.peg_in_goal) {
+        (None, true) => "yes",
+        (None, false) => "NO",
+        (Some(_), true) => "NO (the peg ends in the goal, but the needle is overloaded)",
+        (Some(_), false) => "NO (and the needle is overloaded)",
+    };
+    println!("inserted: {verdict}");
     println!(
         "final pose: x = {:.1} µm, y = {:.1} µm, θ = {:.2}°",
         p.x_um,
@@ -116,9 +139,21 @@ fn print_result(r: &Replay, csv: &std::path::Path, figs: &[PathBuf], as_json: bo
         p.theta_rad.to_degrees()
     );
     println!(
-        "steps: {} ({} LCP solves), max wall penetration {:.3} µm, max needle deflection {:.2} µm",
-        r.steps, r.lcp_solves, r.max_penetration_um, r.max_probe_deflection_um
+        "steps: {} ({} LCP solves), max wall penetration {:.3} µm",
+        r.steps, r.lcp_solves, r.max_penetration_um
     );
+    println!(
+        "needle: peak deflection {:.2} µm, peak probe force {:.1} part weights (limit {:.0} µm \
+         = {:.0} part weights): {}",
+        r.max_probe_deflection_um,
+        r.max_probe_force_weights,
+        r.probe_deflection_limit_um,
+        force_limit_weights,
+        if r.overload.is_some() { "OVERLOADED" } else { "within the limit" }
+    );
+    if let Some(o) = &r.overload {
+        println!("{o}");
+    }
     for e in &r.events {
         println!("event at t = {:.2} s (move {}): {}", e.t_s, e.move_index + 1, e.what);
     }

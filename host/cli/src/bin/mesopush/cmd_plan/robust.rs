@@ -1,6 +1,7 @@
 //! `mesopush plan robust`: the robust search's settings from the flags, the search (with its
 //! budget and fresh check, `mesopush_plan::search_robust`), the plan written and the report
-//! printed.
+//! printed — unless its nominal replay bends the needle beyond the model's limit: then no
+//! plan is written and the command exits 1 saying so.
 
 use super::{CommonArgs, bar, load_world};
 use anyhow::{Context, Result, bail};
@@ -117,13 +118,18 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
     };
     let report = search_robust(&world, start, &search, &mut on_progress)?;
     bar.finish_and_clear();
+    if let Some(o) = &report.nominal_overload {
+        print(c, &report, false);
+        let why = format!("the designed plan is refused and was not written: {o}");
+        return Err(crate::verdict::Negative(why).into());
+    }
     let plan = &report.design.plan;
     std::fs::write(&c.out, plan.to_toml())
         .with_context(|| format!("writing {}", c.out.display()))?;
     if let Some(fig) = &c.figure {
         draw_replayed_plan(&mut sim, plan, fig)?;
     }
-    print(c, &report);
+    print(c, &report, true);
     Ok(())
 }
 
@@ -149,10 +155,12 @@ fn robust_settings(args: &RobustArgs) -> RobustSettings {
     }
 }
 
-fn print(c: &CommonArgs, o: &RobustReport) {
+/// Prints the report; `written`: the plan was written to `--out` (not refused).
+fn print(c: &CommonArgs, o: &RobustReport, written: bool) {
     let (r, est) = (&o.design, &o.check);
     let summary = json!({
-        "found": true, "robust": true, "nominal_feasible": o.nominal_feasible,
+        "found": written, "robust": true, "nominal_feasible": o.nominal_feasible,
+        "nominal_overload": o.nominal_overload,
         "success_rate": est.success_rate, "ci_low": est.ci_low, "ci_high": est.ci_high,
         "samples": est.samples, "check_seed": o.check_seed, "training_rate": r.training_rate,
         "validation_rate": r.validation_rate, "confirmation_rate": r.confirmation_rate,
@@ -161,7 +169,8 @@ fn print(c: &CommonArgs, o: &RobustReport) {
         "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
         "iterations": r.evaluations, "generations": r.generations, "rounds": r.rounds,
         "validation_samples": o.validation_samples, "confirmation_samples": o.confirmation_samples,
-        "planning_ms": o.planning_ms, "seed": c.seed, "plan": &c.out,
+        "planning_ms": o.planning_ms, "seed": c.seed,
+        "plan": if written { Some(&c.out) } else { None },
         "parameters": NAMES.iter().zip(r.skeleton.params)
             .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
     });
@@ -170,7 +179,11 @@ fn print(c: &CommonArgs, o: &RobustReport) {
         return;
     }
     let inserts = if o.nominal_feasible { "inserts" } else { "does NOT insert" };
-    println!("robust plan: {} (nominal replay {inserts})", c.out.display());
+    if written {
+        println!("robust plan: {} (nominal replay {inserts})", c.out.display());
+    } else {
+        println!("robust plan: NOT written (its nominal replay overloads the needle)");
+    }
     println!(
         "success on {} fresh trials: {:.1} % (95 % interval {:.1}–{:.1} %); on the {} training worlds {:.1} %",
         est.samples,

@@ -72,6 +72,7 @@ pub(super) fn run(args: &RrtArgs) -> Result<()> {
         "iterations": result.iterations, "tree_size": result.tree_size,
         "simulated_pushes": result.simulated_pushes,
         "rejected_at_verification": result.rejected_at_verification,
+        "overloaded_pushes": result.overloaded_pushes,
         "planning_ms": planning_ms, "seed": c.seed,
         "plan": if found { Some(&c.out) } else { None },
     });
@@ -97,8 +98,9 @@ fn print_text(s: &serde_json::Value) {
         s["travel_um"].as_f64().unwrap_or(0.0)
     );
     println!(
-        "iterations: {}, tree size: {}, pushes simulated: {}",
-        s["iterations"], s["tree_size"], s["simulated_pushes"]
+        "iterations: {}, tree size: {}, pushes simulated: {} ({} rejected: they overload the \
+         needle)",
+        s["iterations"], s["tree_size"], s["simulated_pushes"], s["overloaded_pushes"]
     );
     println!(
         "pushes before shortcutting: {} ({} drops tried)",
