@@ -2,7 +2,7 @@
 //! and the host's vision (`mesopush_vision::capture`), so that neither copies the other's
 //! types and the executor never depends on a host crate.
 //!
-//! - [`format`]: how a driver lays out a frame (GREY or YUYV, bytes per line) and its
+//! - [`format`](mod@format): how a driver lays out a frame (GREY or YUYV, bytes per line) and its
 //!   conversion to 8-bit luma — pure functions, tested on recorded buffers without a camera.
 //! - [`stamp`]: the driver's buffer timestamp (`CLOCK_MONOTONIC`, start of exposure or end of
 //!   frame) decoded from a V4L2 buffer's flags and time.

@@ -1,6 +1,6 @@
 //! Where frames come from: the [`FrameSource`] seam, with a replaying source here (rendered
 //! or recorded frames, for tests and the simulator) and, behind the `v4l` cargo feature, a
-//! V4L2 camera ([`V4l2Source`]). Every frame carries its timestamp, which instant of the
+//! V4L2 camera (`V4l2Source`). Every frame carries its timestamp, which instant of the
 //! exposure that marks, its sequence number and how many frames were dropped before it
 //! (gaps in the sequence).
 //!

@@ -10,6 +10,7 @@
 pub mod assess;
 pub mod background;
 pub mod calib;
+pub mod calib_fit;
 pub mod capture;
 pub mod demo;
 pub mod error;

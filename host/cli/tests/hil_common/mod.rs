@@ -96,12 +96,19 @@ pub struct RigProcs {
 }
 
 pub fn start_rig(d: &Path, plan: &Path) -> RigProcs {
+    start_rig_in(d, plan, None)
+}
+
+/// [`start_rig`] with the simulator's `--world` (default: its embedded default world).
+pub fn start_rig_in(d: &Path, plan: &Path, world: Option<&Path>) -> RigProcs {
     let fw_dir = d.join("fw");
+    let mut fw = Command::new(FWSIM);
+    fw.args(["--seed", "3", "--rt-priority", "70", "--plan"]).arg(plan);
+    if let Some(w) = world {
+        fw.arg("--world").arg(w);
+    }
     let mut fwsim = Killed(
-        Command::new(FWSIM)
-            .args(["--seed", "3", "--rt-priority", "70", "--plan"])
-            .arg(plan)
-            .arg("--run-dir")
+        fw.arg("--run-dir")
             .arg(&fw_dir)
             .stdout(Stdio::piped())
             .spawn()
