@@ -10,7 +10,8 @@
 //! - [`frame`]: a captured frame and the [`FrameSource`] trait.
 //! - `v4l2` (cargo feature `v4l`): a V4L2 device streaming through mmap buffers.
 //!
-//! A leaf crate beside the executor. May depend on: `thiserror` and, with the feature, `v4l`.
+//! A leaf crate beside the executor. May depend on: `thiserror` and, with the feature, `v4l`
+//! and `libc` (poll's event bits). Never on a mesopush crate.
 
 pub mod drops;
 pub mod error;

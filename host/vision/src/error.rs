@@ -1,6 +1,6 @@
 //! The vision crate's one error: bad settings and images (naming the field, the value and
-//! what is allowed), frame folders that cannot be read, and cameras that cannot be opened or read
-//! (`mesopush_capture`'s errors).
+//! what is allowed), frame folders that cannot be read, and cameras that cannot be opened
+//! or read (`mesopush_capture`'s errors).
 
 use std::path::PathBuf;
 

@@ -4,8 +4,9 @@
 //! removal by its geometry and an ellipse fit to the peg's second moments.
 //!
 //! May depend on: `mesopush-core` (geometry), `mesopush-framestore` (frames on disk) and
-//! `mesopush-capture` (camera frames, shared with the executor) only. It knows images, optics and outlines, not
-//! the simulator, trial logs or the rig: callers hand it polygons and poses.
+//! `mesopush-capture` (camera frames, shared with the executor) only. It knows images,
+//! optics and outlines, not the simulator, trial logs or the rig: callers hand it polygons
+//! and poses.
 
 pub mod assess;
 pub mod background;

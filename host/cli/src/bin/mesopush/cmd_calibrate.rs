@@ -5,7 +5,8 @@
 //! calibration file `track --calibration` and `run --calibration` read (docs/vision.md,
 //! "Calibrating pixel size on a rig"). Thin over `mesopush_rig::client::calibrate`. Exit
 //! status: 0 written; 2 refused (the tip not found at a position, bad moves, the executor
-//! refusing the moves) or invalid input — nothing is written then.
+//! refusing the moves) or invalid input — nothing is written then. The moves are flashed as
+//! a plan of their own: flash the trial's plan again afterwards.
 
 use anyhow::Context;
 use clap::Args;

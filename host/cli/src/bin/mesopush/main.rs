@@ -63,6 +63,12 @@ enum Command {
     /// Rig commands between trials on a running executor: status, goto, home, stop.
     Rig(cmd_rig::RigArgs),
     /// Measure the camera's pixel size and rotation on a rig (move the probe, track its tip).
+    ///
+    /// Moves the probe from where it is (backlash take-up, rest, x move, rest, y move, rest)
+    /// on a running executor that records frames, tracks its tip at the three rests and fits
+    /// the pixel size, the camera's rotation and the fixture origin in the image; writes the
+    /// calibration file that `track --calibration` and `run --calibration` read. The moves
+    /// replace the executor's flashed plan: flash the trial's plan again afterwards.
     Calibrate(cmd_calibrate::CalibrateArgs),
     /// Convert recordings of real pushes (Zhou & Mason 2017, ...) into trial logs.
     Import(cmd_import::ImportArgs),
