@@ -1,8 +1,8 @@
 //! `mesopush-executor`: the executor between the host's line (serial, or a Unix socket) and
 //! the motion controller's serial line, in real time. Plans persist in `--plan-store`;
-//! camera frames come from `--camera unix:PATH` or `--camera v4l:/dev/videoN` (feature `v4l`); trials are recorded under `--record-dir`
-//! (frames.csv, frames/*.png, events.csv, recording.json); other log records are printed to
-//! stdout, one per line.
+//! camera frames come from `--camera unix:PATH` or `--camera v4l:/dev/videoN` (feature
+//! `v4l`); trials are recorded under `--record-dir` (frames.csv, frames/*.png, events.csv,
+//! recording.json); other log records are printed to stdout, one per line.
 //!
 //! Subcommands: `run` (the default: `mesopush-executor --host-port …` still works) and
 //! `bench` (send-time deviation of the std shell in real time; docs/executor.md).
