@@ -66,6 +66,43 @@ fn bad_ports_are_a_clear_error() {
     assert!(err.contains("opening serial port /nonexistent/tty"), "{err}");
 }
 
+/// `--camera v4l:DEVICE` through the binary: without the `v4l` feature it names the build
+/// that has it; with it (CI has no camera) a missing device is named. Either way the
+/// executor exits with an error instead of running without its camera.
+#[test]
+fn a_v4l_camera_that_cannot_be_used_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_ctrl_master, _ctrl_slave, ctrl_name) = pty();
+    let out = Command::new(BIN)
+        .args(["run", "--host-port", "unix:/nonexistent/host.sock", "--ctrl-port", &ctrl_name])
+        .args(["--camera", "v4l:/dev/video-mesopush-missing"])
+        .arg("--plan-store")
+        .arg(dir.path().join("plan.bin"))
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("/dev/video-mesopush-missing"), "{err}");
+    let expected = if cfg!(feature = "v4l") { "no such device" } else { "--features v4l" };
+    assert!(err.contains(expected), "{err}");
+    let bad = Command::new(BIN)
+        .args([
+            "run",
+            "--host-port",
+            "unix:/x",
+            "--ctrl-port",
+            &ctrl_name,
+            "--camera",
+            "/dev/video0",
+        ])
+        .arg("--plan-store")
+        .arg(dir.path().join("plan.bin"))
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && err.contains("v4l:DEVICE"), "{err}");
+}
+
 fn read_some(port: &mut TTYPort, buf: &mut [u8]) -> usize {
     match port.read(buf) {
         Ok(n) => n,

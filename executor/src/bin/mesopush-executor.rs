@@ -1,8 +1,8 @@
 //! `mesopush-executor`: the executor between the host's line (serial, or a Unix socket) and
 //! the motion controller's serial line, in real time. Plans persist in `--plan-store`;
-//! camera frames come from `--camera unix:PATH`; trials are recorded under `--record-dir`
-//! (frames.csv, frames/*.png, events.csv, recording.json); other log records are printed to
-//! stdout, one per line.
+//! camera frames come from `--camera unix:PATH` or `--camera v4l:/dev/videoN` (feature
+//! `v4l`); trials are recorded under `--record-dir` (frames.csv, frames/*.png, events.csv,
+//! recording.json); other log records are printed to stdout, one per line.
 //!
 //! Subcommands: `run` (the default: `mesopush-executor --host-port …` still works) and
 //! `bench` (send-time deviation of the std shell in real time; docs/executor.md).
@@ -21,7 +21,8 @@ use mesopush_executor::adapter::p2p::sensapex::{Sensapex, SensapexSettings};
 use mesopush_executor::bench::{BenchOptions, run_bench};
 use mesopush_executor::clock::MonotonicClock;
 use mesopush_executor::endpoint::Endpoint;
-use mesopush_executor::shell::camera_source::{CameraCounters, CameraEnd, spawn_camera_reader};
+use mesopush_executor::shell::camera_addr::{CameraAddr, parse_size};
+use mesopush_executor::shell::camera_source::{CameraCounters, CameraEnd, CameraSinks};
 use mesopush_executor::shell::controller::{ControllerKind, Line as ControllerLine, open_line};
 use mesopush_executor::shell::port::{ByteRead, ByteWrite, split_tty};
 use mesopush_executor::shell::record::{ExecRecorder, RecordConfig};
@@ -175,11 +176,17 @@ struct Args {
     /// Stop after this many seconds (default: run until a line closes).
     #[arg(long)]
     duration_s: Option<f64>,
-    /// Camera channel: `unix:PATH`, a camera serving frames on a Unix socket
-    /// (`mesopush-fwsim` prints it). Frames are stamped with the driver's CLOCK_MONOTONIC
-    /// stamp converted to the executor's clock (docs/hil.md).
-    #[arg(long, value_name = "unix:PATH")]
+    /// Camera: `unix:PATH`, a camera serving frames on a Unix socket (`mesopush-fwsim`
+    /// prints it), or `v4l:/dev/videoN`, a V4L2 camera (GREY or YUYV; needs an executor built
+    /// with `--features v4l`). Frames are stamped with the driver's CLOCK_MONOTONIC stamp
+    /// converted to the executor's clock (docs/hil.md); gaps in the driver's frame sequence
+    /// are counted as dropped frames.
+    #[arg(long, value_name = "unix:PATH|v4l:DEVICE")]
     camera: Option<String>,
+    /// Frame size asked of a V4L2 camera, WxH (e.g. 640x480) [default: the size the camera
+    /// is set to].
+    #[arg(long, value_name = "WxH")]
+    camera_size: Option<String>,
     /// Record each trial's frames.csv, frames/*.png, events.csv and recording.json into
     /// DIR/trial-<plan id>-<start µs>/ (docs/trial-log.md); `mesopush run` completes it.
     #[arg(long, value_name = "DIR")]
@@ -362,21 +369,21 @@ fn sidecar(
     let stop = Arc::new(AtomicBool::new(false));
     let (frames, camera) = match &args.camera {
         Some(addr) => {
-            let Some(path) = addr.strip_prefix("unix:") else {
-                bail!("--camera wants unix:PATH, got {addr:?}");
-            };
+            let addr = CameraAddr::parse(addr).map_err(anyhow::Error::msg)?;
+            let size = args.camera_size.as_deref().map(parse_size).transpose();
+            let size = size.map_err(|e| anyhow::anyhow!("--camera-size: {e}"))?;
             let (tx, rx) = bounded(FRAME_QUEUE);
-            let rec_tx = record.is_some().then_some(img_tx);
-            let t = spawn_camera_reader(
-                Path::new(path),
-                clock.clone(),
-                tx,
-                rec_tx,
-                counters.clone(),
-                stop.clone(),
-            )?;
+            let sinks = CameraSinks {
+                clock: clock.clone(),
+                to_loop: tx,
+                to_recorder: record.is_some().then_some(img_tx),
+                counters: counters.clone(),
+                stop: stop.clone(),
+            };
+            let t = addr.spawn(size, sinks).context("--camera")?;
             (Some(rx), Some(t))
         }
+        None if args.camera_size.is_some() => bail!("--camera-size needs --camera v4l:DEVICE"),
         None => (None, None),
     };
     let rec = ExecRecorder::new(record, clock.clone());

@@ -4,6 +4,10 @@
 //! image to the recorder and the frame to the shell's loop — both through bounded channels,
 //! never waiting: a full channel drops the item and counts it.
 //!
+//! The channels, counters and end states are shared with the V4L2 reader
+//! (`camera_v4l`, feature `v4l`); [`super::camera_addr`] picks the reader from the
+//! `--camera` address.
+//!
 //! Time base (`docs/hil.md`): a frame whose header carries `capture_mono_us` is stamped with
 //! it (`StampSource::Driver`), converted exactly because both processes read the same
 //! `CLOCK_MONOTONIC`; one without it is stamped on arrival (after its last pixel is read).
@@ -69,34 +73,56 @@ impl core::fmt::Display for CameraEnd {
     }
 }
 
+/// Where a camera reader thread hands its frames: the shell's loop and the recorder (both
+/// bounded channels, never waited for: a full one drops the item and counts it), with the
+/// executor's clock, the counters and the stop flag.
+#[derive(Debug, Clone)]
+pub struct CameraSinks {
+    /// The executor's clock (driver stamps are converted into it).
+    pub clock: Arc<MonotonicClock>,
+    /// Frames for the shell's loop (stamping).
+    pub to_loop: Sender<CameraFrame>,
+    /// Images for the recorder (`None`: not recording).
+    pub to_recorder: Option<Sender<FrameImage>>,
+    /// The thread's counters.
+    pub counters: Arc<CameraCounters>,
+    /// Set to stop the thread.
+    pub stop: Arc<AtomicBool>,
+}
+
+impl CameraSinks {
+    /// Hands `frame` to the loop and `image` to the recorder without waiting; counts what a
+    /// full channel refused.
+    pub fn deliver(&self, frame: CameraFrame, image: FrameImage) {
+        let c = &self.counters;
+        c.received.fetch_add(1, Ordering::Relaxed);
+        if let Some(tx) = &self.to_recorder
+            && let Err(TrySendError::Full(_)) = tx.try_send(image)
+        {
+            c.recorder_dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        if self.to_loop.try_send(frame).is_err() {
+            c.loop_dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Whether a stop was requested.
+    pub fn stopping(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+}
+
 /// Connects to the camera at `path` and starts the reader thread.
-pub fn spawn_camera_reader(
-    path: &Path,
-    clock: Arc<MonotonicClock>,
-    to_loop: Sender<CameraFrame>,
-    to_recorder: Option<Sender<FrameImage>>,
-    counters: Arc<CameraCounters>,
-    stop: Arc<AtomicBool>,
-) -> io::Result<JoinHandle<CameraEnd>> {
+pub fn spawn_camera_reader(path: &Path, sinks: CameraSinks) -> io::Result<JoinHandle<CameraEnd>> {
     let stream = UnixStream::connect(path).map_err(|e| {
         io::Error::new(e.kind(), format!("connecting to the camera at {}: {e}", path.display()))
     })?;
     stream.set_read_timeout(Some(Duration::from_millis(100)))?;
     Ok(std::thread::spawn(move || {
-        let mut reader = Reader { stream, stop };
+        let mut reader = Reader { stream, stop: sinks.stop.clone() };
         loop {
-            match reader.frame(&clock) {
-                Ok(Some((frame, image))) => {
-                    counters.received.fetch_add(1, Ordering::Relaxed);
-                    if let Some(tx) = &to_recorder
-                        && let Err(TrySendError::Full(_)) = tx.try_send(image)
-                    {
-                        counters.recorder_dropped.fetch_add(1, Ordering::Relaxed);
-                    }
-                    if to_loop.try_send(frame).is_err() {
-                        counters.loop_dropped.fetch_add(1, Ordering::Relaxed);
-                    }
-                }
+            match reader.frame(&sinks.clock) {
+                Ok(Some((frame, image))) => sinks.deliver(frame, image),
                 Ok(None) => break CameraEnd::Stopped,
                 Err(e) if e.kind() == ErrorKind::UnexpectedEof => break CameraEnd::Closed,
                 Err(e) => break CameraEnd::Failed(e),
@@ -177,7 +203,14 @@ mod tests {
         let (itx, irx) = crossbeam_channel::bounded(4);
         let counters = Arc::new(CameraCounters::default());
         let stop = Arc::new(AtomicBool::new(false));
-        let t = spawn_camera_reader(&path, clock.clone(), ftx, Some(itx), counters, stop).unwrap();
+        let sinks = CameraSinks {
+            clock: clock.clone(),
+            to_loop: ftx,
+            to_recorder: Some(itx),
+            counters,
+            stop,
+        };
+        let t = spawn_camera_reader(&path, sinks).unwrap();
         let (mut cam, _) = listener.accept().unwrap();
         let mono = clock.to_mono_us(1_234);
         let h = CameraFrameHeader {

@@ -11,11 +11,16 @@
 //! memory, raises the loop to `SCHED_FIFO` and pins it to a CPU. Time comes from a [`crate::clock::Clock`]. Byte links are behind [`port::ByteRead`]
 //! / [`port::ByteWrite`], implemented for serial ports (`serialport::TTYPort`, which also
 //! gives pseudo-terminal pairs), for in-memory pipes and for a Unix socket host line
-//! ([`unix_line`]). Camera frames come from the camera channel ([`camera_source`]); the
+//! ([`unix_line`]). Camera frames come from the camera channel ([`camera_source`], a Unix socket) or a
+//! V4L2 camera (`camera_v4l`, feature `v4l`), chosen by [`camera_addr`]; the
 //! recorder thread ([`record`]) writes the raw frame part of each trial log.
 
 #[cfg(unix)]
+pub mod camera_addr;
+#[cfg(unix)]
 pub mod camera_source;
+#[cfg(all(unix, feature = "v4l"))]
+pub mod camera_v4l;
 #[cfg(unix)]
 pub mod controller;
 pub mod fsx;

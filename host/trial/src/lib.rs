@@ -13,6 +13,7 @@
 //! the executor's recording schema and frame store (`mesopush-framestore`). Never on
 //! identification, planning, diagnosis, the rig or batches, which all read trial logs.
 
+pub mod calib_file;
 mod csv_read;
 pub mod discover;
 pub mod error;
@@ -25,6 +26,7 @@ pub mod retention;
 pub mod time_order;
 pub mod writer;
 
+pub use calib_file::CalibrationFile;
 pub use discover::trial_dirs;
 pub use error::Error;
 pub use meta::{CalibrationRecord, Outcome, TrialMeta, TrialState};

@@ -1,77 +1,30 @@
-//! Where frames come from: a small [`FrameSource`] trait with a replaying source (rendered or
-//! recorded frames, for tests and the simulator) and, behind the `v4l` cargo feature, a V4L2
-//! camera (`capture_v4l`). Every frame carries the driver's timestamp, its sequence number and
-//! how many frames were dropped before it (from gaps in the sequence).
+//! Where frames come from: the [`FrameSource`] seam, with a replaying source here (rendered
+//! or recorded frames, for tests and the simulator) and, behind the `v4l` cargo feature, a
+//! V4L2 camera (`V4l2Source`). Every frame carries its timestamp, which instant of the
+//! exposure that marks, its sequence number and how many frames were dropped before it
+//! (gaps in the sequence).
+//!
+//! The frame type, the trait, the drop counter and the V4L2 camera live in
+//! `mesopush-capture`, shared with the executor (which must not depend on a host crate); this
+//! module re-exports them and adds what only the host needs: the replay and the frame as an
+//! [`image::GrayImage`] for the tracker ([`gray_image`]).
 
 use image::GrayImage;
 
 use crate::Error;
 
-/// Which instant of the exposure a timestamp marks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StampInstant {
-    /// Start of exposure (the driver says so: `V4L2_BUF_FLAG_TSTAMP_SRC_SOE`).
-    StartOfExposure,
-    /// End of frame (V4L2's default when the driver says nothing else).
-    EndOfFrame,
-}
+pub use mesopush_capture::frame::is_black;
+#[cfg(feature = "v4l")]
+pub use mesopush_capture::v4l2::V4l2Source;
+pub use mesopush_capture::{CapturedFrame, DropCounter, FrameSource, StampInstant};
 
-/// One captured frame.
-#[derive(Debug, Clone)]
-pub struct CapturedFrame {
-    /// 8-bit grayscale image.
-    pub image: GrayImage,
-    /// Capture time on the monotonic clock, µs (`frame_stamp_us`).
-    pub t_capture_us: u64,
-    /// Which instant `t_capture_us` marks.
-    pub stamp: StampInstant,
-    /// The driver's frame sequence number.
-    pub sequence: u32,
-    /// Frames lost just before this one (gap in the sequence numbers).
-    pub dropped_before: u32,
-}
-
-/// A source of camera frames.
-pub trait FrameSource {
-    /// Blocks until the next frame; `Ok(None)` when the source has ended.
-    fn next_frame(&mut self) -> Result<Option<CapturedFrame>, Error>;
-
-    /// Frames dropped so far.
-    fn dropped_total(&self) -> u64;
-}
-
-/// Detects dropped frames from gaps in (wrapping, 32-bit) sequence numbers.
-#[derive(Debug, Clone, Default)]
-pub struct DropCounter {
-    last: Option<u32>,
-    total: u64,
-}
-
-impl DropCounter {
-    /// A counter that has seen no frame.
-    pub const fn new() -> Self {
-        Self { last: None, total: 0 }
-    }
-
-    /// Records frame `sequence`; returns how many were skipped since the previous one. A
-    /// sequence that goes backwards (driver restart) counts as no drop and restarts the count.
-    pub fn observe(&mut self, sequence: u32) -> u32 {
-        let gap = match self.last {
-            Some(prev) => {
-                let step = sequence.wrapping_sub(prev);
-                if step == 0 || step > u32::MAX / 2 { 0 } else { step - 1 }
-            }
-            None => 0,
-        };
-        self.last = Some(sequence);
-        self.total += u64::from(gap);
-        gap
-    }
-
-    /// Frames dropped so far.
-    pub fn total(&self) -> u64 {
-        self.total
-    }
+/// The frame's pixels as an image (no copy); a pixel count that does not match the size is
+/// refused naming both.
+pub fn gray_image(frame: CapturedFrame) -> Result<GrayImage, Error> {
+    let (w, h, n) = (frame.width, frame.height, frame.pixels.len());
+    GrayImage::from_raw(w, h, frame.pixels).ok_or_else(|| {
+        Error::invalid("captured frame", format!("{n} pixels do not make a {w}×{h} image"))
+    })
 }
 
 /// Replays frames at a fixed period, as a camera would deliver them; chosen frames can be
@@ -113,16 +66,18 @@ impl ReplaySource {
 }
 
 impl FrameSource for ReplaySource {
-    fn next_frame(&mut self) -> Result<Option<CapturedFrame>, Error> {
+    fn next_frame(&mut self) -> Result<Option<CapturedFrame>, mesopush_capture::Error> {
         while self.drop_sequences.contains(&self.next_sequence) {
             self.next_sequence += 1;
         }
-        let Some(image) = self.frames.get(self.next_index).cloned() else { return Ok(None) };
+        let Some(image) = self.frames.get(self.next_index) else { return Ok(None) };
         let sequence = self.next_sequence;
         self.next_index += 1;
         self.next_sequence += 1;
         Ok(Some(CapturedFrame {
-            image,
+            width: image.width(),
+            height: image.height(),
+            pixels: image.as_raw().clone(),
             t_capture_us: self.start_us + u64::from(sequence) * self.period_us,
             stamp: StampInstant::StartOfExposure,
             sequence,
@@ -140,19 +95,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn gaps_count_as_drops_and_wrap_around() {
-        let mut d = DropCounter::new();
-        assert_eq!(d.observe(5), 0);
-        assert_eq!(d.observe(6), 0);
-        assert_eq!(d.observe(9), 2);
-        assert_eq!(d.observe(3), 0, "a restart is not a drop");
-        let mut w = DropCounter::new();
-        w.observe(u32::MAX - 1);
-        assert_eq!(w.observe(1), 2);
-        assert_eq!(d.total(), 2);
-    }
-
-    #[test]
     fn replay_skips_dropped_sequences_and_reports_them() {
         let frames = vec![GrayImage::new(4, 4); 4];
         let mut src = ReplaySource::new(frames, 33_333, 1_000).unwrap().with_drops(&[1, 2]);
@@ -165,5 +107,15 @@ mod tests {
         src.next_frame().unwrap().unwrap();
         assert!(src.next_frame().unwrap().is_none());
         assert!(ReplaySource::new(vec![], 0, 0).is_err());
+    }
+
+    #[test]
+    fn a_frame_becomes_an_image_only_when_its_size_fits() {
+        let mut src = ReplaySource::new(vec![GrayImage::new(3, 2)], 1, 0).unwrap();
+        let f = src.next_frame().unwrap().unwrap();
+        assert_eq!(gray_image(f.clone()).unwrap().dimensions(), (3, 2));
+        let bad = CapturedFrame { pixels: vec![0; 5], ..f };
+        let e = gray_image(bad).unwrap_err().to_string();
+        assert!(e.contains("5 pixels") && e.contains("3×2"), "{e}");
     }
 }

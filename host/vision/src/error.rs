@@ -1,5 +1,6 @@
 //! The vision crate's one error: bad settings and images (naming the field, the value and
-//! what is allowed), frame folders that cannot be read, and cameras that cannot be opened.
+//! what is allowed), frame folders that cannot be read, and cameras that cannot be opened
+//! or read (`mesopush_capture`'s errors).
 
 use std::path::PathBuf;
 
@@ -34,14 +35,9 @@ pub enum Error {
         /// The value and the rule it breaks.
         message: String,
     },
-    /// A camera could not be opened, configured or read.
-    #[error("camera {device}: {message}")]
-    Camera {
-        /// The device (e.g. `/dev/video0`) or source name.
-        device: String,
-        /// What went wrong.
-        message: String,
-    },
+    /// A camera could not be opened, configured or read, or a frame not converted.
+    #[error(transparent)]
+    Capture(#[from] mesopush_capture::Error),
     /// A polygon is not a valid convex polygon.
     #[error("polygon: {0}")]
     Polygon(#[from] mesopush_core::geom::PolygonError),

@@ -3,15 +3,16 @@
 //! peg's pose and the probe tip from frames by background subtraction, thresholding, probe
 //! removal by its geometry and an ellipse fit to the peg's second moments.
 //!
-//! May depend on: `mesopush-core` (geometry) and `mesopush-framestore` (frames on disk) only. It knows images, optics and outlines, not
-//! the simulator, trial logs or the rig: callers hand it polygons and poses.
+//! May depend on: `mesopush-core` (geometry), `mesopush-framestore` (frames on disk) and
+//! `mesopush-capture` (camera frames, shared with the executor) only. It knows images,
+//! optics and outlines, not the simulator, trial logs or the rig: callers hand it polygons
+//! and poses.
 
 pub mod assess;
 pub mod background;
 pub mod calib;
+pub mod calib_fit;
 pub mod capture;
-#[cfg(feature = "v4l")]
-pub mod capture_v4l;
 pub mod demo;
 pub mod error;
 pub mod folder;

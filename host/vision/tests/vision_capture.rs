@@ -1,8 +1,9 @@
 //! Frame sources: replayed rendered frames feed the tracker with timestamps and drop counts;
-//! with the `v4l` feature, a missing camera gets a clear error naming the device.
+//! with the `v4l` feature, a missing camera gets a clear error naming the device through the
+//! vision crate's error (the V4L2 source itself is `mesopush-capture`'s).
 
 use mesopush_core::geom::Pose;
-use mesopush_vision::capture::{FrameSource, ReplaySource};
+use mesopush_vision::capture::{FrameSource, ReplaySource, gray_image};
 use mesopush_vision::demo::demo_sequence_frame;
 use mesopush_vision::{
     DemoFixture, RenderSettings, Renderer, Scene, TrackSettings, Tracker, paper_peg,
@@ -34,12 +35,14 @@ fn replayed_frames_are_tracked_with_their_times_and_drops() {
     let mut tracker = Tracker::new(&bg, TrackSettings::default()).unwrap();
     let mut k = 0;
     while let Some(f) = source.next_frame().unwrap() {
-        let m = tracker.track(&f.image).unwrap();
+        let (sequence, dropped_before, t_capture_us) =
+            (f.sequence, f.dropped_before, f.t_capture_us);
+        let m = tracker.track(&gray_image(f).unwrap()).unwrap();
         assert!(m.flags.is_empty(), "frame {k}: {m:?}");
         let err = (m.pose.unwrap().position() - truths[k].position()).norm();
         assert!(err < 1.0, "frame {k}: {err} µm");
-        assert_eq!(f.dropped_before, u32::from(f.sequence == 3));
-        assert_eq!(f.t_capture_us, 5_000 + u64::from(f.sequence) * 33_333);
+        assert_eq!(dropped_before, u32::from(sequence == 3));
+        assert_eq!(t_capture_us, 5_000 + u64::from(sequence) * 33_333);
         k += 1;
     }
     assert_eq!(k, n);
@@ -49,8 +52,10 @@ fn replayed_frames_are_tracked_with_their_times_and_drops() {
 #[cfg(feature = "v4l")]
 #[test]
 fn a_missing_camera_is_a_clear_error() {
-    use mesopush_vision::capture_v4l::V4l2Source;
-    let e = V4l2Source::open(std::path::Path::new("/dev/video-mesopush-missing"), 640, 480)
+    use mesopush_vision::capture::V4l2Source;
+    let e = V4l2Source::open(std::path::Path::new("/dev/video-mesopush-missing"), Some((640, 480)))
+        .map(|_| ())
+        .map_err(mesopush_vision::Error::from)
         .unwrap_err();
     let text = e.to_string();
     assert!(
@@ -58,6 +63,6 @@ fn a_missing_camera_is_a_clear_error() {
         "{text}"
     );
     // a file that is not a V4L2 device is refused too, not a panic
-    let not_a_camera = V4l2Source::open(std::path::Path::new("/dev/null"), 640, 480).unwrap_err();
+    let not_a_camera = V4l2Source::open(std::path::Path::new("/dev/null"), None).unwrap_err();
     assert!(not_a_camera.to_string().contains("/dev/null"), "{not_a_camera}");
 }

@@ -96,18 +96,30 @@ pub struct RigProcs {
 }
 
 pub fn start_rig(d: &Path, plan: &Path) -> RigProcs {
-    start_rig_with(d, plan, "native")
+    start_rig_in(d, plan, None)
 }
 
 /// [`start_rig`] with the controller `controller` (`native`, `mpc200`, …) on both sides.
 pub fn start_rig_with(d: &Path, plan: &Path, controller: &str) -> RigProcs {
+    start_rig_on(d, plan, None, controller)
+}
+
+/// [`start_rig`] with the simulator's `--world` (default: its embedded default world).
+pub fn start_rig_in(d: &Path, plan: &Path, world: Option<&Path>) -> RigProcs {
+    start_rig_on(d, plan, world, "native")
+}
+
+/// The simulator with `world` and `controller`, the executor with the same controller.
+fn start_rig_on(d: &Path, plan: &Path, world: Option<&Path>, controller: &str) -> RigProcs {
     let fw_dir = d.join("fw");
+    let mut fw = Command::new(FWSIM);
+    fw.args(["--controller", controller]);
+    fw.args(["--seed", "3", "--rt-priority", "70", "--plan"]).arg(plan);
+    if let Some(w) = world {
+        fw.arg("--world").arg(w);
+    }
     let mut fwsim = Killed(
-        Command::new(FWSIM)
-            .args(["--controller", controller])
-            .args(["--seed", "3", "--rt-priority", "70", "--plan"])
-            .arg(plan)
-            .arg("--run-dir")
+        fw.arg("--run-dir")
             .arg(&fw_dir)
             .stdout(Stdio::piped())
             .spawn()

@@ -280,7 +280,9 @@ struct SimWorld {
     world: serde_json::Value,
 }
 
-fn wait_for_recording(dir: &Path) -> Result<PathBuf, Error> {
+/// Waits (at most [`RECORDING_TIMEOUT`]) for the executor to close the recording `dir`
+/// (`recording.json` appears); the error says which flags the executor needs.
+pub fn wait_for_recording(dir: &Path) -> Result<PathBuf, Error> {
     let marker = dir.join("recording.json");
     let t = Instant::now();
     while !marker.exists() {

@@ -7,6 +7,8 @@
 //! - [`hil`]: the hardware-in-the-loop workflow's host side (`mesopush flash`, `mesopush
 //!   run`) and the error figures against the firmware simulator's truth file.
 //! - [`rig`]: rig commands between trials (`mesopush rig status|goto|home|stop`).
+//! - [`calibrate`]: `mesopush calibrate`, the camera's pixel size and rotation measured by
+//!   moving the probe ([`calib_plan`]: the moves and the rests) and tracking its tip.
 //! - [`complete`]: completing a trial recorded by the executor into a trial log;
 //!   [`schedule`]: the setpoint schedule rebuilt from the flashed plan; [`tracking`]: a
 //!   tracked frame as a pose.csv row.
@@ -16,6 +18,8 @@
 //! (`drive`): a client talks to whatever executor is at the other end of the line, real or
 //! simulated.
 
+pub mod calib_plan;
+pub mod calibrate;
 pub mod complete;
 pub mod hil;
 pub mod hostlink;

@@ -134,7 +134,12 @@ pub fn plan_start(plan: &Plan, offset_um: Vec2) -> Result<StagePoint, Error> {
 
 /// The plan's flash image and its id (the image's CRC: the same plan, the same id).
 pub fn plan_image(plan: &Plan) -> Result<(u32, Vec<u8>), Error> {
-    let image: Vec<u8> = plan_steps(plan)?.iter().flat_map(|s| s.to_image_bytes()).collect();
+    steps_image(&plan_steps(plan)?)
+}
+
+/// The flash image of `steps` and its id (the image's CRC).
+pub fn steps_image(steps: &[PlanStep]) -> Result<(u32, Vec<u8>), Error> {
+    let image: Vec<u8> = steps.iter().flat_map(|s| s.to_image_bytes()).collect();
     let header = FlashHeader::for_image(0, &image)
         .map_err(|e| Error::invalid("plan image", e.to_string()))?;
     Ok((header.image_crc32.max(1), image))
@@ -151,6 +156,18 @@ impl HostSession {
         session_id: u16,
     ) -> Result<Self, Error> {
         let (plan_id, image) = plan_image(plan)?;
+        Ok(Self::with(goal, image, plan_id, start, session_id))
+    }
+
+    /// A session for executor steps built by the host itself (each with its own speed, which
+    /// a [`Plan`] cannot express; e.g. `mesopush calibrate`'s moves and pauses).
+    pub fn with_steps(
+        steps: &[PlanStep],
+        goal: SessionGoal,
+        start: StagePoint,
+        session_id: u16,
+    ) -> Result<Self, Error> {
+        let (plan_id, image) = steps_image(steps)?;
         Ok(Self::with(goal, image, plan_id, start, session_id))
     }
 

@@ -13,7 +13,7 @@ use mesopush_executor::ExecutorConfig;
 use mesopush_rig::WorldFile;
 use mesopush_rig::client::hil::{self, RunOptions, RunPhase, RunReport};
 use mesopush_sim::Plan;
-use mesopush_trial::{FrameRetention, TrialState, retention};
+use mesopush_trial::{CalibrationFile, FrameRetention, TrialState, retention};
 use std::path::{Path, PathBuf};
 
 /// The paper's Table II plan, embedded.
@@ -41,6 +41,10 @@ pub(crate) struct RunArgs {
     /// effects and faults are never read). Default: worlds/default.toml, embedded.
     #[arg(long)]
     world: Option<PathBuf>,
+    /// The camera calibration from a calibration file (`mesopush calibrate`'s) instead of the
+    /// world file's `[camera]`.
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
     /// The executor's --setpoint-rate-hz (rebuilds the setpoint schedule for probe.csv).
     #[arg(long, default_value_t = 100)]
     setpoint_rate_hz: u32,
@@ -84,7 +88,10 @@ pub(crate) fn run(args: &RunArgs) -> anyhow::Result<()> {
         record_dir: args.record_dir.clone(),
         out: args.out.clone(),
         background: args.background.clone(),
-        calibration: world.spec.camera.calibration()?,
+        calibration: match &args.calibration {
+            Some(path) => load_calibration(path)?,
+            None => world.spec.camera.calibration()?,
+        },
         fixture_origin_um: Vec2::new(ox, oy),
         frame_period_us: world.spec.camera.period_us,
         period_us: config.setpoint_period_us(),
@@ -113,9 +120,19 @@ pub(crate) fn run(args: &RunArgs) -> anyhow::Result<()> {
     Ok(crate::verdict::trial_verdict(report.trial.state, report.trial.inserted)?)
 }
 
+/// The calibration of a calibration file, with a warning on stderr when the camera's
+/// fitted rotation is more than the tracker should ignore.
+pub(crate) fn load_calibration(path: &Path) -> anyhow::Result<mesopush_vision::Calibration> {
+    let file = CalibrationFile::load(path)?;
+    if let Some(w) = file.rotation_warning() {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    Ok(file.checked_calibration()?)
+}
+
 /// A spinner on stderr (so `--json` keeps stdout clean; hidden when stderr is no terminal)
 /// saying what the run waits for: up to a minute and more would otherwise pass in silence.
-fn phase_bar() -> ProgressBar {
+pub(crate) fn phase_bar() -> ProgressBar {
     let bar = ProgressBar::new_spinner();
     if let Ok(style) = ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}") {
         bar.set_style(style);
@@ -124,7 +141,7 @@ fn phase_bar() -> ProgressBar {
     bar
 }
 
-fn show_phase(bar: &ProgressBar, phase: RunPhase) {
+pub(crate) fn show_phase(bar: &ProgressBar, phase: RunPhase) {
     let msg = match phase {
         RunPhase::Connecting => "connecting to the executor".to_string(),
         RunPhase::Arming => "arming the flashed plan (probe at its start?) and starting".into(),

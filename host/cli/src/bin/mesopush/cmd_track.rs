@@ -38,6 +38,10 @@ pub(crate) struct TrackArgs {
     /// image's top-left corner).
     #[arg(long, value_name = "X,Y", default_value = "0,0")]
     origin_px: String,
+    /// A calibration file (written by `mesopush calibrate`; its `[calibration]` table) instead
+    /// of --field-um, --um-per-px and --origin-px.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["field_um", "um_per_px", "origin_px"])]
+    calibration: Option<PathBuf>,
     /// Fixed threshold on the darkening, share of the plate's light (default: automatic).
     #[arg(long)]
     threshold: Option<f32>,
@@ -73,7 +77,9 @@ fn pair(flag: &str, text: &str) -> anyhow::Result<(f64, f64)> {
 
 fn settings(args: &TrackArgs, width: u32, height: u32) -> anyhow::Result<TrackSettings> {
     let (ox, oy) = pair("--origin-px", &args.origin_px)?;
-    let calibration = if let Some(s) = &args.um_per_px {
+    let calibration = if let Some(path) = &args.calibration {
+        crate::cmd_run::load_calibration(path)?
+    } else if let Some(s) = &args.um_per_px {
         let (sx, sy) = pair("--um-per-px", s)?;
         Calibration::new(sx, sy, Vec2::new(ox, oy))?
     } else {

@@ -5,6 +5,7 @@
 //! ([`verdict::Negative`]), 2 invalid input or a refusal (any other error).
 
 mod cmd_batch;
+mod cmd_calibrate;
 mod cmd_demo;
 mod cmd_diagnose;
 mod cmd_flash;
@@ -61,6 +62,14 @@ enum Command {
     Run(cmd_run::RunArgs),
     /// Rig commands between trials on a running executor: status, goto, home, stop.
     Rig(cmd_rig::RigArgs),
+    /// Measure the camera's pixel size and rotation on a rig (move the probe, track its tip).
+    ///
+    /// Moves the probe from where it is (backlash take-up, rest, x move, rest, y move, rest)
+    /// on a running executor that records frames, tracks its tip at the three rests and fits
+    /// the pixel size, the camera's rotation and the fixture origin in the image; writes the
+    /// calibration file that `track --calibration` and `run --calibration` read. The moves
+    /// replace the executor's flashed plan: flash the trial's plan again afterwards.
+    Calibrate(cmd_calibrate::CalibrateArgs),
     /// Convert recordings of real pushes (Zhou & Mason 2017, ...) into trial logs.
     Import(cmd_import::ImportArgs),
 }
@@ -99,6 +108,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Flash(args) => cmd_flash::run(&args),
         Command::Run(args) => cmd_run::run(&args),
         Command::Rig(args) => cmd_rig::run(&args),
+        Command::Calibrate(args) => cmd_calibrate::run(&args),
         Command::Import(args) => cmd_import::run(&args),
     }
 }
