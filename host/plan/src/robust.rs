@@ -172,8 +172,8 @@ fn choose(
 ) -> (usize, Option<f64>) {
     // Finalists whose nominal replay bends the needle beyond its limit are out while any
     // finalist stays within it (if none does, `plan robust` refuses the winner).
+    // (Not counted in `trials`, which counts training and validation replays.)
     let safe: Vec<bool> = pool.iter().map(|p| nominally_within_limit(fine, start, &p.0)).collect();
-    counts.replays += pool.len();
     let any_safe = safe.contains(&true);
     let ok = |i: usize| !any_safe || safe[i];
     let base = pool.iter().position(|p| p.0 == settings.initial.clamped()).filter(|&b| ok(b));
