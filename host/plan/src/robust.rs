@@ -17,6 +17,10 @@
 //! - **Coarse search, fine choice.** Training replays use a coarser simulator step
 //!   ([`RobustSettings::train_step_um`]); the validation uses the world's own settings, so
 //!   the plan is chosen on the simulator that checks it.
+//!
+//! Needle safety: an overloaded replay is a failure like any other, and a finalist whose
+//! nominal replay bends the needle beyond the model's limit is not chosen while another
+//! stays within it.
 
 use crate::Error;
 use crate::cem::{Counts, cem_round};
@@ -28,7 +32,7 @@ use crate::score::{count, outcomes};
 use crate::skeleton::Skeleton;
 use crate::world::UncertainWorld;
 use mesopush_sim::plan::PegStart;
-use mesopush_sim::{Plan, SimSettings};
+use mesopush_sim::{Plan, SimSettings, Simulator, replay};
 use rand::RngExt;
 
 /// What the optimiser found.
@@ -166,8 +170,15 @@ fn choose(
     rng: &mut impl rand::Rng,
     counts: &mut Counts,
 ) -> (usize, Option<f64>) {
-    let base = pool.iter().position(|p| p.0 == settings.initial.clamped());
-    let eligible = |i: usize| base.is_none_or(|b| i == b || clearly_better(&pool[i].2, &pool[b].2));
+    // Finalists whose nominal replay bends the needle beyond its limit are out while any
+    // finalist stays within it (if none does, `plan robust` refuses the winner).
+    // (Not counted in `trials`, which counts training and validation replays.)
+    let safe: Vec<bool> = pool.iter().map(|p| nominally_within_limit(fine, start, &p.0)).collect();
+    let any_safe = safe.contains(&true);
+    let ok = |i: usize| !any_safe || safe[i];
+    let base = pool.iter().position(|p| p.0 == settings.initial.clamped()).filter(|&b| ok(b));
+    let eligible =
+        |i: usize| ok(i) && base.is_none_or(|b| i == b || clearly_better(&pool[i].2, &pool[b].2));
     let mut ranked: Vec<usize> = (0..pool.len()).filter(|&i| eligible(i)).collect();
     ranked.sort_by_key(|&i| std::cmp::Reverse((count(&pool[i].2), pool[i].1)));
     // Only finalists within reach of the most validated run again (four standard deviations
@@ -191,6 +202,15 @@ fn choose(
     let k_base = base.and_then(|b| ranked.iter().position(|&i| i == b));
     let k = most_successful(&both, k_base);
     (ranked[k], Some(count(&conf[k]) as f64 / n_conf as f64))
+}
+
+/// Whether `skel`'s plan, replayed in the nominal world (the fine settings), keeps the needle
+/// within the model's limit (a replay the simulator cannot run does not).
+fn nominally_within_limit(fine: &UncertainWorld<'_>, start: PegStart, skel: &Skeleton) -> bool {
+    let plan = skel.to_plan("", start);
+    Simulator::new(fine.model.clone(), fine.fixture.clone(), fine.settings.clone())
+        .and_then(|mut sim| replay(&mut sim, &plan, None))
+        .is_ok_and(|r| r.overload.is_none())
 }
 
 /// The index of the most successful outcome vector (ties: the first), counting only the
