@@ -20,7 +20,9 @@ use super::objective::{residual_vector, residuals};
 use super::options::Options;
 use super::residual::{Mse, Noise};
 use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
-use mesopush_ident::joint::{Objective, OptimizeSettings, Optimized, optimize_objective};
+use mesopush_ident::joint::{
+    Layout, Objective, OptimizeSettings, Optimized, optimize_objective, refine,
+};
 use mesopush_ident::score::Candidate;
 use mesopush_sim::{Model, SimSettings, SupportDistribution};
 use rand::SeedableRng;
@@ -94,7 +96,9 @@ pub fn starts(from: &Model) -> Vec<Candidate> {
 }
 
 /// The nominal model fitted to `train` from `starts` (best first) with `max_evals` objective
-/// evaluations; `free_loads` picks the richer family.
+/// evaluations for the evolution-strategy search; `free_loads` picks the richer family. The
+/// three-point family also runs a multi-start descent ([`descend_from_many`], twice that
+/// budget) and keeps whichever fits the training trials better.
 pub fn fit_support(
     base: &Model,
     train: &[TrialData],
@@ -110,9 +114,9 @@ pub fn fit_support(
     let mut order: Vec<usize> = (0..starts.len()).collect();
     order.sort_by(|&a, &b| sse[a].total_cmp(&sse[b]));
     let kept: Vec<Candidate> = order.iter().take(KEPT_STARTS).map(|&k| starts[k].clone()).collect();
-    let max_evals = max_evals.saturating_sub(starts.len());
+    let max_es = max_evals.saturating_sub(starts.len());
     let opt = OptimizeSettings {
-        max_evals,
+        max_evals: max_es,
         restarts: 2,
         fit_surface: true,
         starts: kept.len(),
@@ -122,7 +126,78 @@ pub fn fit_support(
     let l_um = base.part.char_length_um();
     let mut o = optimize_objective(&objective, l_um, &kept, &opt, &mut rng, &|| {});
     o.evals += starts.len();
+    let descent = (!free_loads)
+        .then(|| descend_from_many(&objective, l_um, &descent_starts(base), 2 * max_evals))
+        .flatten();
+    if let Some(d) = descent {
+        let evals = o.evals + d.evals;
+        if d.total_sse_um2 < o.total_sse_um2 {
+            o = d;
+        }
+        o.evals = evals;
+    }
     (with_candidate(base, &o.best), o)
+}
+
+/// Starts of the multi-start descent: the part's uniform-pressure triangle scaled by 0.6,
+/// 0.85 and 1.1 (a real part may rest on its rim or near its centre) and turned every 15°
+/// over the 120° after which three points 120° apart repeat, each with probe friction 0.25,
+/// 0.5 and 1.0 and `from`'s mean surface friction; those not inside the part are left out.
+pub fn descent_starts(from: &Model) -> Vec<Candidate> {
+    let uniform = SupportDistribution::uniform_pressure(&from.part, mean_mu_surface(&from.support));
+    let mut out = Vec::new();
+    for scale in [0.6, 0.85, 1.1] {
+        for k in 0..8 {
+            let turn = Pose::new(0.0, 0.0, (15.0 * f64::from(k)).to_radians());
+            let points_um = uniform.points_um.map(|[x, y]| {
+                let p = turn.rotate(&Vec2::new(scale * x, scale * y));
+                [p.x, p.y]
+            });
+            let support = SupportDistribution { points_um, ..uniform.clone() };
+            if support.validate(from.part.polygon()).is_ok() {
+                out.extend(
+                    START_MU_PROBE.map(|mu_probe| Candidate { mu_probe, support: support.clone() }),
+                );
+            }
+        }
+    }
+    out
+}
+
+/// Starts descended in [`descend_from_many`].
+const DESCENTS: usize = 6;
+
+/// Multi-start descent: every start scored once (in parallel, in order), then
+/// Levenberg–Marquardt ([`mesopush_ident::joint::refine`]: the three points and μ_probe, the
+/// surface friction held, which quasi-statically moves the part only through the simulator's
+/// viscous regularisation) from the [`DESCENTS`] best with equal shares of what is left of
+/// `budget`; the lowest training loss wins (`None` without starts). Levenberg–Marquardt walks the long curved valleys
+/// of this objective (many triangles push alike) where the evolution strategy stalls: on
+/// six clean batches of the independent generator (seeds 11–16) it fitted the training trials
+/// better than the evolution strategy on five.
+pub fn descend_from_many(
+    objective: &dyn Objective,
+    l_um: f64,
+    starts: &[Candidate],
+    budget: usize,
+) -> Option<Optimized> {
+    let sse: Vec<f64> = starts.par_iter().map(|c| objective.sse(c)).collect();
+    let mut order: Vec<usize> = (0..starts.len()).collect();
+    order.sort_by(|&a, &b| sse[a].total_cmp(&sse[b]));
+    let kept = order.len().min(DESCENTS);
+    let share = budget.saturating_sub(starts.len()) / kept.max(1);
+    let mut best: Option<Optimized> = None;
+    let mut evals = starts.len();
+    for &k in &order[..kept] {
+        let o = refine(objective, l_um, &starts[k], Layout::default(), share, &|| {});
+        evals += o.evals;
+        if best.as_ref().is_none_or(|b| o.total_sse_um2 < b.total_sse_um2) {
+            best = Some(o);
+        }
+    }
+    let mut best = best?;
+    best.evals = evals;
+    Some(best)
 }
 
 /// What the nominal support fit found ([`crate::nominal`]).

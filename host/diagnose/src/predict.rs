@@ -137,22 +137,34 @@ pub fn restart_frames(
 
 /// Frames averaged for a restart pose: the tracker's noise in one frame would stay in the
 /// whole stroke as an offset; the peg rests while the probe is clear, so the mean of the
-/// last few clear frames is the better start.
-const RESTART_FRAMES: usize = 8;
+/// clear frames next to the restart is the better start (its error falls as 1/√n: 30 frames
+/// are one second at 30 Hz).
+const RESTART_FRAMES: usize = 30;
 
 /// The measured pose to restart from at frame `k`: the mean over the clear frames up to
-/// [`RESTART_FRAMES`] back (frame `k` alone when it is not clear, as frame 0 may be).
+/// [`RESTART_FRAMES`] back, or, at frame 0, the clear frames from it forward (the peg rests
+/// until the probe first comes near: a start from frame 0 alone carried one frame's
+/// tracker noise through the whole first stroke); frame `k` alone when it is not clear.
 fn rest_pose(data: &TrialData, clear: &[bool], k: usize) -> Pose {
-    let mut n = 0.0;
-    let (mut x, mut y, mut th) = (0.0, 0.0, 0.0);
-    for j in (k.saturating_sub(RESTART_FRAMES - 1)..=k).rev() {
-        if !clear[j] {
-            break;
-        }
-        let p = data.frames[j].pose;
-        (x, y, th, n) = (x + p.x_um, y + p.y_um, th + p.theta_rad, n + 1.0);
+    let span: Vec<usize> = if k == 0 {
+        (0..clear.len().min(RESTART_FRAMES)).take_while(|&j| clear[j]).collect()
+    } else {
+        (k.saturating_sub(RESTART_FRAMES - 1)..=k).rev().take_while(|&j| clear[j]).collect()
+    };
+    if span.is_empty() {
+        return data.frames[k].pose;
     }
-    if n == 0.0 { data.frames[k].pose } else { Pose::new(x / n, y / n, th / n) }
+    // Angles averaged as turns from the first (a peg resting at ±π must not average to 0).
+    let th0 = data.frames[span[0]].pose.theta_rad;
+    let n = span.len() as f64;
+    let (mut x, mut y, mut dth) = (0.0, 0.0, 0.0);
+    for &j in &span {
+        let p = data.frames[j].pose;
+        let d = (p.theta_rad - th0 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        (x, y, dth) = (x + p.x_um, y + p.y_um, dth + d);
+    }
+    Pose::new(x / n, y / n, th0 + dth / n)
 }
 
 /// The path between `t0_s` and `t1_s`: the probe interpolated at `t0_s`, then every point
