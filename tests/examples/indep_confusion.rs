@@ -67,6 +67,18 @@ fn diagnose_batch(root: &Path, batch: &Value) -> Result<Value, String> {
     let (before, after) = (Mse::of(&d.residuals.0), Mse::of(&d.residuals.1));
     let truth = batch["truth"]["name"].as_str().unwrap_or("?").to_owned();
     let verdict = said(d.verdict, d.effect.map(|e| e.name()));
+    let scores: Vec<Value> = d
+        .scores
+        .iter()
+        .map(|s| {
+            let params: BTreeMap<&str, f64> =
+                s.params.iter().map(|p| (p.0.as_str(), p.1)).collect();
+            json!({"candidate": s.candidate.name(), "bic": s.bic,
+                   "heldout_norm": s.heldout_norm, "params": params,
+                   "heldout_tip_norm": s.heldout.tip_um2 / (noise.tip_um * noise.tip_um),
+                   "heldout_xy_norm": s.heldout.xy_um2 / (noise.xy_um * noise.xy_um)})
+        })
+        .collect();
     Ok(json!({
         "batch": batch["dir"], "world": batch["world"], "truth": truth,
         "expected": expected(&truth), "said": verdict,
@@ -74,7 +86,8 @@ fn diagnose_batch(root: &Path, batch: &Value) -> Result<Value, String> {
         "nominal_family": d.support_fit.family,
         "heldout_xy_mse_um2_nominal": before.xy_um2, "heldout_xy_mse_um2_after": after.xy_um2,
         "floor_um2": floor, "nominal_over_floor": before.xy_um2 / floor,
-        "wall_s": wall_s,
+        "wall_s": wall_s, "support_fit": d.support_fit.heldout_norm,
+        "floor_band": d.floor_band, "scores": scores,
     }))
 }
 

@@ -7,7 +7,7 @@
 use super::adequacy::AllTrials;
 use super::candidates::{Effect, NOMINAL, base_model, mean_mu_surface};
 use super::data::TrialData;
-use super::decide::{Ambiguity, EffectScore, Verdict, decide, training_lead};
+use super::decide::{Ambiguity, EffectScore, Verdict, decide, tip_winner, training_lead};
 use super::fit::{Fit, fit, fit_where};
 use super::nominal::{Held, SupportFit, nominal_base};
 use super::objective::{loss, residual_vector, residuals};
@@ -52,6 +52,9 @@ pub struct Diagnosis {
     pub training_lead: Option<Effect>,
     /// The nominal support fit: which family was kept, and each family's held-out error.
     pub support_fit: SupportFit,
+    /// Whether the imaged probe tip alone named the effect ([`crate::decide`]: an effect
+    /// between the command and the image, while the part's poses stay above the floor).
+    pub named_by_tip: bool,
     /// Training and held-out trial ids.
     pub split: (Vec<String>, Vec<String>),
     /// Held-out residuals before (nominal) and after (extended model).
@@ -191,6 +194,7 @@ pub fn diagnose(
     let (verdict, best, ambiguity) =
         if adequacy.overrules { (Verdict::None, None, None) } else { (verdict, best, ambiguity) };
     let lead = training_lead(&scores, opts).filter(|_| verdict == Verdict::Unexplained);
+    let named_by_tip = verdict == Verdict::Effect && tip_winner(&scores, &fits, opts).is_some();
     let best = best.cloned().unwrap_or_else(|| nominal.clone());
     let after = residuals(heldout, &best.model, s)?;
     let every: Vec<&Fit> = std::iter::once(&nominal).chain(&fits).collect();
@@ -208,6 +212,7 @@ pub fn diagnose(
         ambiguity,
         training_lead: lead,
         support_fit,
+        named_by_tip,
         split: (ids(train), ids(heldout)),
         residuals: (before, after),
         heldout: heldout.to_vec(),
@@ -252,6 +257,11 @@ fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bo
         bic: bic(f),
         heldout: heldout_mse,
         heldout_norm: heldout_mse.normalised(noise, tip),
+        heldout_tip_norm: if tip {
+            heldout_mse.tip_um2 / (2.0 * noise.tip_um.powi(2))
+        } else {
+            f64::NAN
+        },
     }
 }
 

@@ -46,6 +46,20 @@ const REMAINING_FACTOR: f64 = 10.0;
 /// The verdict in one line, with its reason.
 fn verdict_line(d: &Diagnosis) -> String {
     match (d.verdict, d.ambiguity) {
+        (Verdict::Effect, _) if d.named_by_tip => {
+            let tip = |c: Effect| {
+                d.scores.iter().find(|s| s.candidate == c).map_or(f64::NAN, |s| s.heldout_tip_norm)
+            };
+            format!(
+                "effect: {} — named by the imaged probe tip, on which it acts whatever the \
+                 part's physics (held-out tip error {:.1} → {:.1} noise units, 1 at the floor; \
+                 no other candidate brings it to the floor band); the part's poses are not \
+                 predicted to the floor",
+                d.best.candidate.name(),
+                tip(Effect::Nominal),
+                tip(d.best.candidate)
+            )
+        }
         (Verdict::Effect, _) => format!("effect: {}", d.best.candidate.name()),
         (Verdict::Unexplained, Some(Ambiguity::Tie(a, b))) => format!(
             "unexplained: {} and {} fit the held-out trials about as well, and neither \
@@ -170,6 +184,7 @@ pub fn json(d: &Diagnosis) -> Value {
     json!({
         "verdict": d.verdict,
         "effect": d.effect.map(|e| e.name()),
+        "named_by_tip": d.named_by_tip,
         "signature": d.effect.map(|e| e.signature()),
         "ambiguous_with": d.ambiguity.map(|a| { let (x, y) = a.pair(); [x.name(), y.name()] }),
         "ambiguity": d.ambiguity.map(|a| match a {
