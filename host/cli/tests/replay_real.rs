@@ -76,3 +76,37 @@ fn a_bad_model_is_refused_naming_the_field_with_exit_2() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("mu_probe = -0.3") && err.starts_with("error:"), "{err}");
 }
+
+/// `identify` on real pushes whose recording has gaps (the hand moved unlogged between
+/// pushes): identification restarts each trial's simulation at the first tracked pose after
+/// every `log_gap`, as `replay` does. Caught: it simulated the unlogged moves as straight
+/// lines through the part, so every candidate ended ~56 mm RMS off (X,Y MSE 3.2e9 µm²) and
+/// the sweep's best μ was 0; a trial's own registration tolerance (3.5 mm, from the import)
+/// was ignored too. The best candidate must now follow every run within a tenth of the
+/// part's length RMS (5 mm: X,Y MSE < 2.5e7 µm²).
+#[test]
+fn identify_on_real_pushes_restarts_after_each_gap_in_the_recording() {
+    let tmp = tempfile::tempdir().unwrap();
+    let zm = tmp.path().join("zm");
+    let o = mesopush(
+        &["import", "zhou-mason", "--out"],
+        &[&zm, &data("bigrect_3pts/bigrect_3pts_20_neg30_90")],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let (model, sup) = (tmp.path().join("m.toml"), tmp.path().join("s.toml"));
+    let mut args = vec!["identify", "run", "--supports", "8", "--json", "--out"];
+    let model_s = model.to_str().unwrap().to_owned();
+    let sup_s = sup.to_str().unwrap().to_owned();
+    args.extend([model_s.as_str(), "--consistent-out", sup_s.as_str()]);
+    let o = mesopush(&args, &[&zm]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let per_trial = v["report"]["nominal"]["per_trial"].as_array().unwrap();
+    assert_eq!(per_trial.len(), 5, "{v}");
+    let mu = v["report"]["nominal"]["candidate"]["mu_probe"].as_f64().unwrap();
+    for t in per_trial {
+        let mse = t["xy_mse_um2"].as_f64().unwrap();
+        eprintln!("identify on a real run: best candidate (μ {mu}) X,Y MSE {mse:.0} µm²");
+        assert!(mse < 2.5e7, "X,Y MSE {mse} µm²: {t}");
+    }
+}

@@ -170,7 +170,7 @@ const DESCENTS: usize = 6;
 /// Multi-start descent: every start scored once (in parallel, in order), then
 /// Levenberg–Marquardt ([`mesopush_ident::joint::refine`]: the three points and μ_probe, the
 /// surface friction held, which quasi-statically moves the part only through the simulator's
-/// viscous regularisation) from the [`DESCENTS`] best with equal shares of what is left of
+/// viscous regularisation) from the `DESCENTS` (6) best with equal shares of what is left of
 /// `budget`; the lowest training loss wins (`None` without starts). Levenberg–Marquardt walks the long curved valleys
 /// of this objective (many triangles push alike) where the evolution strategy stalls: on
 /// six clean batches of the independent generator (seeds 11–16) it fitted the training trials

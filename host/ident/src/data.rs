@@ -25,8 +25,45 @@ pub struct IdentTrial {
     /// The commanded probe path from the first tracked pose's time on (its first point is
     /// the probe interpolated at that time).
     pub path: Vec<ProbePoint>,
-    /// Tracked poses after the first, as (time s, pose), within the path's time span.
+    /// Tracked poses after the first, as (time s, pose), within the path's time span (the
+    /// poses inside a gap of the recording left out).
     pub measured: Vec<(f64, Pose)>,
+    /// Where the recording says the pusher's path is unknown (`log_gap` events,
+    /// docs/trial-log.md), the simulation starts again: each gap's last recorded command
+    /// before it and the first tracked pose after it, in time order.
+    pub restarts: Vec<Restart>,
+    /// How far the recorded pusher may start inside the part, µm (`trial.json`'s
+    /// `registration_tol_um`; None: the simulator's default fraction of the part's size).
+    pub registration_tol_um: Option<f64>,
+}
+
+/// A restart of the simulation after a gap in the recording (as `mesopush replay` does).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Restart {
+    /// The last recorded command before the gap, s: the segment before ends there.
+    pub before_s: f64,
+    /// The first tracked pose after the gap: the time the next segment starts from, s.
+    pub t_s: f64,
+    /// That pose.
+    pub pose: Pose,
+}
+
+/// The restarts of a trial with tracked `poses` and commands `path` at its `log_gap` times.
+fn restarts_at(gaps_s: &[f64], poses: &[PoseRow], path: &[ProbePoint]) -> Vec<Restart> {
+    let t = |p: &PoseRow| p.t_us as f64 * 1e-6;
+    let mut out: Vec<Restart> = gaps_s
+        .iter()
+        .filter_map(|&g| {
+            let k = poses.partition_point(|p| t(p) < g);
+            let p = poses.get(k).filter(|_| k > 0)?;
+            let before_s =
+                path.iter().map(|q| q.t_s).filter(|&q| q < g).fold(t(&poses[0]), f64::max);
+            Some(Restart { before_s, t_s: t(p), pose: Pose::new(p.x_um, p.y_um, p.theta_rad) })
+        })
+        .collect();
+    out.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    out.dedup_by(|a, b| a.t_s == b.t_s);
+    out
 }
 
 /// A fixture with no walls (open plate); its goal is a token square far away, never reached.
@@ -128,10 +165,18 @@ impl IdentTrial {
         }
         let mut trimmed = vec![pusher_at(&path, t0_s)];
         trimmed.extend(path.iter().filter(|p| p.t_s > t0_s).copied());
+        let gaps_s: Vec<f64> = trial
+            .events
+            .iter()
+            .filter(|e| e.kind == "log_gap")
+            .map(|e| e.t_us as f64 * 1e-6)
+            .collect();
+        let restarts = restarts_at(&gaps_s, poses, &path);
+        let in_gap = |t: f64| restarts.iter().any(|r| t > r.before_s && t < r.t_s);
         let measured: Vec<(f64, Pose)> = poses[1..]
             .iter()
             .map(|p| (p.t_us as f64 * 1e-6, Pose::new(p.x_um, p.y_um, p.theta_rad)))
-            .filter(|(t, _)| *t <= t_end_s)
+            .filter(|(t, _)| *t <= t_end_s && !in_gap(*t))
             .collect();
         if measured.is_empty() {
             return Err(Error::invalid(
@@ -150,6 +195,8 @@ impl IdentTrial {
             start,
             path: trimmed,
             measured,
+            restarts,
+            registration_tol_um: trial.meta.registration_tol_um,
         })
     }
 

@@ -7,9 +7,11 @@
 //! part's characteristic length (largest vertex radius), i.e. the orientation error as the
 //! displacement of the part's far corner — a scale-free weighting that works for any part.
 
-use super::data::IdentTrial;
+use super::data::{IdentTrial, pusher_at};
 use mesopush_core::geom::Pose;
-use mesopush_sim::{Model, PathSample, SimSettings, Simulator, SupportDistribution, follow_path};
+use mesopush_sim::{
+    Model, PathSample, ProbePoint, SimSettings, Simulator, SupportDistribution, follow_path,
+};
 use serde::{Deserialize, Serialize};
 
 /// The identified quantities: probe friction and support distribution (with its surface
@@ -126,10 +128,40 @@ pub fn simulate_or_why(
 ) -> Result<(Vec<PathSample>, usize), mesopush_sim::Error> {
     let model = model_for(trial, c, settings);
     // The settings' lengths are the peg's; another part gets them scaled to its size.
-    let sim_settings = settings.sim.clone().scaled_to(&trial.part);
+    let mut sim_settings = settings.sim.clone().scaled_to(&trial.part);
+    if let Some(r) = trial.registration_tol_um {
+        sim_settings.registration_tol = r / trial.part.char_length_um();
+    }
     let mut sim = Simulator::new(model, trial.fixture.clone(), sim_settings)?;
-    let r = follow_path(&mut sim, trial.start, &trial.path)?;
-    Ok((r.samples, r.jams))
+    if trial.restarts.is_empty() {
+        let r = follow_path(&mut sim, trial.start, &trial.path)?;
+        return Ok((r.samples, r.jams));
+    }
+    // Segment by segment: each from its start pose along the commands up to the last one
+    // before the next gap in the recording.
+    let (mut samples, mut jams) = (Vec::new(), 0);
+    let mut from = (trial.path[0].t_s, trial.start);
+    let ends = trial.restarts.iter().map(|r| (r.before_s, Some(*r)));
+    for (end_s, next) in ends.chain(std::iter::once((f64::INFINITY, None))) {
+        let seg = sub_path(&trial.path, from.0, end_s);
+        if seg.len() >= 2 {
+            let r = follow_path(&mut sim, from.1, &seg)?;
+            samples.extend(r.samples);
+            jams += r.jams;
+        }
+        if let Some(r) = next {
+            from = (r.t_s, r.pose);
+        }
+    }
+    Ok((samples, jams))
+}
+
+/// The commands between `t0_s` and `t1_s`: the pusher interpolated at `t0_s`, then every
+/// waypoint after it up to and including `t1_s`.
+fn sub_path(path: &[ProbePoint], t0_s: f64, t1_s: f64) -> Vec<ProbePoint> {
+    let mut out = vec![pusher_at(path, t0_s)];
+    out.extend(path.iter().filter(|p| p.t_s > t0_s && p.t_s <= t1_s).copied());
+    out
 }
 
 /// Scores `c` on `trial` (a failed simulation scores [`Score::failed`]).
