@@ -7,8 +7,8 @@
 //! given the true supports and μ, replays a clean trial to the generator's final pose.
 //! Numbers: `cargo test -p mesopush-tests --test indep_gen -- --nocapture`.
 
-use mesopush_core::geom::{ConvexPolygon, Pose};
-use mesopush_sim::{Model, Part, SimSettings, Simulator, SupportDistribution, follow_path};
+use mesopush_core::geom::Pose;
+use mesopush_sim::{SimSettings, Simulator, follow_path};
 use mesopush_tests::coulomb::{self, V2};
 use mesopush_tests::indep::batch::{BatchSpec, make_trial, write_batch};
 use mesopush_tests::indep::effects::Effect;
@@ -17,6 +17,9 @@ use mesopush_tests::indep::physics::{self, simulate};
 use mesopush_tests::indep::world::World;
 use std::ops::{Add, Sub};
 use std::path::Path;
+
+mod common;
+use common::project_model;
 
 fn spec(effect: &str, seed: u64, n_trials: usize) -> BatchSpec {
     let mut s = BatchSpec::standard(World::named("peg").unwrap(), effect, seed).unwrap();
@@ -251,21 +254,6 @@ fn backlash_puts_the_imaged_tip_half_the_deadband_behind_per_axis() {
     }
     for (s, lag, n) in &clean {
         assert!(lag[0].abs() < 0.3 && lag[1].abs() < 0.3, "clean {s:?}: {lag:?} over {n}");
-    }
-}
-
-fn project_model(world: &World) -> Model {
-    let poly = ConvexPolygon::try_from(world.outline_um.clone()).unwrap();
-    let p = |k: usize| world.supports[k].at_um;
-    Model {
-        part: Part::from_polygon(&poly),
-        support: SupportDistribution {
-            points_um: [p(0), p(1), p(2)],
-            mu_surface: [world.mu_support; 3],
-        },
-        mu_probe: world.mu_pusher,
-        probe_radius_um: world.pusher_radius_um,
-        ..Model::default()
     }
 }
 

@@ -17,30 +17,16 @@
 //! (seed 22): 1.27 ×. The peg's test is kept, ignored, with its bound unchanged.
 //! Numbers: `cargo test --release -p mesopush-tests --test indep_truth -- --nocapture`.
 
-use mesopush_core::geom::ConvexPolygon;
 use mesopush_diagnose::TrialData;
 use mesopush_diagnose::data::load_split;
 use mesopush_diagnose::objective::residuals;
 use mesopush_diagnose::residual::{Mse, Noise};
-use mesopush_sim::{Model, Part, SimSettings, SupportDistribution};
+use mesopush_sim::SimSettings;
 use mesopush_tests::indep::batch::{BatchSpec, write_batch};
 use mesopush_tests::indep::world::World;
 
-/// The generator's world as the project's model (three supports: the peg and the pentagon).
-fn project_model(world: &World) -> Model {
-    let poly = ConvexPolygon::try_from(world.outline_um.clone()).unwrap();
-    let p = |k: usize| world.supports[k].at_um;
-    Model {
-        part: Part::from_polygon(&poly),
-        support: SupportDistribution {
-            points_um: [p(0), p(1), p(2)],
-            mu_surface: [world.mu_support; 3],
-        },
-        mu_probe: world.mu_pusher,
-        probe_radius_um: world.pusher_radius_um,
-        ..Model::default()
-    }
-}
+mod common;
+use common::project_model;
 
 fn truth_predicts_within_twice_the_floor(name: &str, seed: u64) {
     let tmp = tempfile::tempdir().unwrap();

@@ -109,10 +109,7 @@ pub fn fit_support(
     free_loads: bool,
 ) -> (Model, Optimized) {
     let objective = NominalObjective { trials: train, base, settings, noise };
-    // Screening: every start evaluated once (in parallel, kept in order), the best few kept.
-    let sse: Vec<f64> = starts.par_iter().map(|c| objective.sse(c)).collect();
-    let mut order: Vec<usize> = (0..starts.len()).collect();
-    order.sort_by(|&a, &b| sse[a].total_cmp(&sse[b]));
+    let order = screened(&objective, starts);
     let kept: Vec<Candidate> = order.iter().take(KEPT_STARTS).map(|&k| starts[k].clone()).collect();
     let max_es = max_evals.saturating_sub(starts.len());
     let opt = OptimizeSettings {
@@ -137,6 +134,15 @@ pub fn fit_support(
         o.evals = evals;
     }
     (with_candidate(base, &o.best), o)
+}
+
+/// Screening: every start evaluated once (in parallel, kept in order); their indices, best
+/// first.
+fn screened(objective: &dyn Objective, starts: &[Candidate]) -> Vec<usize> {
+    let sse: Vec<f64> = starts.par_iter().map(|c| objective.sse(c)).collect();
+    let mut order: Vec<usize> = (0..starts.len()).collect();
+    order.sort_by(|&a, &b| sse[a].total_cmp(&sse[b]));
+    order
 }
 
 /// Starts of the multi-start descent: the part's uniform-pressure triangle scaled by 0.6,
@@ -181,9 +187,7 @@ pub fn descend_from_many(
     starts: &[Candidate],
     budget: usize,
 ) -> Option<Optimized> {
-    let sse: Vec<f64> = starts.par_iter().map(|c| objective.sse(c)).collect();
-    let mut order: Vec<usize> = (0..starts.len()).collect();
-    order.sort_by(|&a, &b| sse[a].total_cmp(&sse[b]));
+    let order = screened(objective, starts);
     let kept = order.len().min(DESCENTS);
     let share = budget.saturating_sub(starts.len()) / kept.max(1);
     let mut best: Option<Optimized> = None;

@@ -106,6 +106,7 @@ pub fn tip_path(fx: &Effects, cmd: &[ProbePoint]) -> Vec<ProbePoint> {
 const CLEAR_GAP_UM: f64 = 100.0;
 
 pub(super) use mesopush_ident::data::probe_at;
+use mesopush_ident::data::sub_path;
 
 /// The frames the replay restarts from (multiple shooting): frame 0, and the last frame of
 /// every stretch in which the probe is clear of the measured peg before it comes back. The
@@ -165,14 +166,6 @@ fn rest_pose(data: &TrialData, clear: &[bool], k: usize) -> Pose {
         (x, y, dth) = (x + p.x_um, y + p.y_um, dth + d);
     }
     Pose::new(x / n, y / n, th0 + dth / n)
-}
-
-/// The path between `t0_s` and `t1_s`: the probe interpolated at `t0_s`, then every point
-/// after it up to and including `t1_s`.
-fn sub_path(path: &[ProbePoint], t0_s: f64, t1_s: f64) -> Vec<ProbePoint> {
-    let mut out = vec![mesopush_ident::data::pusher_at(path, t0_s)];
-    out.extend(path.iter().filter(|p| p.t_s > t0_s && p.t_s <= t1_s).copied());
-    out
 }
 
 /// Predicts every frame of `data` under `model` (its `effects` included), the replay

@@ -104,6 +104,14 @@ pub fn pusher_at(path: &[ProbePoint], t_s: f64) -> ProbePoint {
     }
 }
 
+/// The commands between `t0_s` and `t1_s`: the pusher interpolated at `t0_s`, then every
+/// waypoint after it up to and including `t1_s` (a replay's segment between restarts).
+pub fn sub_path(path: &[ProbePoint], t0_s: f64, t1_s: f64) -> Vec<ProbePoint> {
+    let mut out = vec![pusher_at(path, t0_s)];
+    out.extend(path.iter().filter(|p| p.t_s > t0_s && p.t_s <= t1_s).copied());
+    out
+}
+
 /// Distance the pusher must keep from the peg for a tracked pose to count as at rest, µm,
 /// for the paper's peg; scaled with the part's size for any other part.
 const REST_GAP_PEG_UM: f64 = 5.0;

@@ -7,11 +7,9 @@
 //! part's characteristic length (largest vertex radius), i.e. the orientation error as the
 //! displacement of the part's far corner — a scale-free weighting that works for any part.
 
-use super::data::{IdentTrial, pusher_at};
+use super::data::{IdentTrial, sub_path};
 use mesopush_core::geom::Pose;
-use mesopush_sim::{
-    Model, PathSample, ProbePoint, SimSettings, Simulator, SupportDistribution, follow_path,
-};
+use mesopush_sim::{Model, PathSample, SimSettings, Simulator, SupportDistribution, follow_path};
 use serde::{Deserialize, Serialize};
 
 /// The identified quantities: probe friction and support distribution (with its surface
@@ -154,14 +152,6 @@ pub fn simulate_or_why(
         }
     }
     Ok((samples, jams))
-}
-
-/// The commands between `t0_s` and `t1_s`: the pusher interpolated at `t0_s`, then every
-/// waypoint after it up to and including `t1_s`.
-fn sub_path(path: &[ProbePoint], t0_s: f64, t1_s: f64) -> Vec<ProbePoint> {
-    let mut out = vec![pusher_at(path, t0_s)];
-    out.extend(path.iter().filter(|p| p.t_s > t0_s && p.t_s <= t1_s).copied());
-    out
 }
 
 /// Scores `c` on `trial` (a failed simulation scores [`Score::failed`]).
