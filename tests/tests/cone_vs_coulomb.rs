@@ -41,7 +41,7 @@ fn ours(offset: f64, travel: f64, friction: SupportFriction, n_directions: usize
         ..Model::default()
     };
     let goal = rect(50_000.0, 50_000.0, 51_000.0, 51_000.0).unwrap();
-    let fixture = Fixture { walls: vec![], goal, insert_depth_um: 1.0 };
+    let fixture = Fixture { walls: vec![], goal, insert_depth_um: 1.0, goal_whole_part: false };
     // A rigid probe, as the reference's.
     let settings = SimSettings {
         support_friction: friction,

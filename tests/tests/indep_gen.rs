@@ -299,5 +299,5 @@ fn the_projects_simulator_replays_a_clean_trial_to_the_generators_end() {
 
 fn open_plate() -> mesopush_sim::Fixture {
     let goal = mesopush_sim::fixture::rect(-9e4, -9e4, -8.9e4, -8.9e4).unwrap();
-    mesopush_sim::Fixture { walls: vec![], goal, insert_depth_um: 1.0 }
+    mesopush_sim::Fixture { walls: vec![], goal, insert_depth_um: 1.0, goal_whole_part: false }
 }

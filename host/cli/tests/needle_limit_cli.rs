@@ -43,6 +43,7 @@ fn wall_files(dir: &Path, past_stop_um: f64) -> (PathBuf, PathBuf, PathBuf) {
         ],
         goal: rect(50.0, -100.0, 150.0, 100.0).unwrap(),
         insert_depth_um: 1.0,
+        goal_whole_part: false,
     };
     let plan = Plan {
         name: "into the wall".into(),

@@ -125,10 +125,6 @@ fn robust_plan_cli_reports_the_fresh_check_and_the_design_figures() {
         .args(["--train-samples", "4", "--validation-samples", "4", "--check-samples", "6"])
         .args(["--check-seed", "99", "--rounds", "2", "--accept-rate", "1.01", "--out"])
         .arg(&out)
-        // The search's budget is wall time (60 s by default): on a loaded machine the first
-        // round's confirmation reserve can end it after one round. A long limit makes the
-        // round count depend on --rounds alone, which is what this test checks.
-        .args(["--time-limit-s", "600"])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -141,5 +137,83 @@ fn robust_plan_cli_reports_the_fresh_check_and_the_design_figures() {
     }
     assert_eq!((v["generations"].as_u64(), v["rounds"].as_u64()), (Some(2), Some(2)), "{v}");
     assert_eq!(v["validation_samples"], 4, "{v}");
+    assert_eq!((&v["stopped_by_time"], &v["out_of_budget"]), (&false.into(), &false.into()));
     Plan::load(&out).unwrap().validate().unwrap();
+}
+
+/// `plan robust` with a small search: 2 generations of 6 candidates on 8 worlds, 3
+/// finalists on 16 validation worlds, 2 confirmed on 16; `extra` appended.
+fn small_robust(out: &Path, threads: usize, extra: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_mesopush"))
+        .env("RAYON_NUM_THREADS", threads.to_string())
+        .args(["plan", "robust", "--seed", "5", "--json", "--generations", "2"])
+        .args(["--population", "6", "--elite", "2", "--train-samples", "8"])
+        .args(["--validation-samples", "16", "--confirm-top", "2", "--confirm-samples", "16"])
+        .args(["--rounds", "1", "--check-samples", "4", "--out"])
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn a_robust_plan_is_the_same_file_from_the_same_seed_on_one_thread_and_on_two() {
+    // The search's budget counts replays, never seconds, and every parallel batch is
+    // collected in order: the thread count cannot change the plan (it did when a 60-s
+    // wall-clock budget decided how many generations ran, issue 21).
+    let dir = tempfile::tempdir().unwrap();
+    let table2 = concat!(env!("CARGO_MANIFEST_DIR"), "/../../plans/table2.toml");
+    for (label, extra) in
+        [("table2 skeleton", vec!["--from-shipped"]), ("from a plan", vec!["--from-plan", table2])]
+    {
+        let files: Vec<Vec<u8>> = [1, 2, 2]
+            .iter()
+            .enumerate()
+            .map(|(i, &threads)| {
+                let out = dir.path().join(format!("{i}.toml"));
+                let o = small_robust(&out, threads, &extra);
+                assert!(o.status.success(), "{label}: {}", String::from_utf8_lossy(&o.stderr));
+                std::fs::read(&out).unwrap()
+            })
+            .collect();
+        assert!(files[0] == files[1], "{label}: one thread and two gave different plans");
+        assert!(files[1] == files[2], "{label}: the same run twice gave different plans");
+        let plan: Plan = toml::from_str(std::str::from_utf8(&files[0]).unwrap()).unwrap();
+        plan.validate().unwrap();
+    }
+}
+
+#[test]
+fn the_replay_budget_ends_a_robust_search_and_a_wall_clock_limit_says_it_stopped_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.toml");
+    let json = |o: std::process::Output| -> serde_json::Value {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let full = json(small_robust(&out, 2, &["--from-shipped"]));
+    assert_eq!(
+        (full["generations"].as_u64(), full["out_of_budget"].as_bool()),
+        (Some(2), Some(false))
+    );
+    let replays = full["replays"].as_u64().unwrap();
+    // A budget one replay short of the full search's cuts its second generation and stays
+    // within the budget.
+    let budget = (replays - 1).to_string();
+    let cut = json(small_robust(&out, 2, &["--from-shipped", "--max-replays", &budget]));
+    assert_eq!(
+        (cut["generations"].as_u64(), cut["out_of_budget"].as_bool()),
+        (Some(1), Some(true)),
+        "{cut}"
+    );
+    assert!(cut["replays"].as_u64().unwrap() <= budget.parse::<u64>().unwrap(), "{cut}");
+    assert_eq!(cut["stopped_by_time"], false, "{cut}");
+    // A wall-clock limit shorter than one generation stops the search after its first and
+    // says so.
+    let timed = json(small_robust(&out, 2, &["--from-shipped", "--time-limit-s", "0.000001"]));
+    assert_eq!(
+        (timed["generations"].as_u64(), timed["stopped_by_time"].as_bool()),
+        (Some(1), Some(true)),
+        "{timed}"
+    );
 }

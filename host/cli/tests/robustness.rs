@@ -146,21 +146,21 @@ fn small_search() -> mesopush_plan::RobustSettings {
         confirm_top: 3,
         confirm_samples: 0,
         target_rate: 1.0,
-        initial: mesopush_plan::Skeleton::table2_like(),
-        press_on_rotated: false,
+        max_replays: usize::MAX,
     }
 }
 
 #[test]
 fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds() {
-    use mesopush_plan::{RobustSettings, Skeleton, UncertainWorld, design_robust};
+    use mesopush_plan::{RobustSettings, Skeleton, Table2Family, UncertainWorld, design_robust};
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
     let world = UncertainWorld::nominal(&model, &fixture, &settings);
     let rs = small_search();
     let start = Plan::table2().peg_start;
+    let t2 = Skeleton::table2_like().params;
     let run = |rs: &RobustSettings, seed| {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        design_robust(&world, start, rs, &mut rng, &mut |_, _| true).unwrap()
+        design_robust(&world, start, &Table2Family, &t2, rs, &mut rng, &mut |_, _| true).unwrap()
     };
     let a = run(&rs, 5);
     assert_eq!(a, run(&rs, 5), "seed 5");
@@ -211,9 +211,10 @@ fn robust_design_is_deterministic_and_never_worse_than_its_start_on_its_worlds()
 
 #[test]
 fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_the_incumbent() {
-    use mesopush_plan::{RobustSettings, UncertainWorld, design_robust};
+    use mesopush_plan::{RobustSettings, Skeleton, Table2Family, UncertainWorld, design_robust};
     let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
     let world = UncertainWorld::nominal(&model, &fixture, &settings);
+    let t2 = Skeleton::table2_like().params;
     let rs = RobustSettings {
         generations: 2,
         validation_samples: 6,
@@ -226,7 +227,7 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
     let start = Plan::table2().peg_start;
     let run = |seed| {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        design_robust(&world, start, &rs, &mut rng, &mut |_, _| true).unwrap()
+        design_robust(&world, start, &Table2Family, &t2, &rs, &mut rng, &mut |_, _| true).unwrap()
     };
     let a = run(3);
     assert_eq!(a, run(3), "seed 3");
@@ -245,7 +246,8 @@ fn robust_design_on_fresh_worlds_each_generation_is_deterministic_and_reraces_th
     // start, all validated on the same worlds; the winner is validated no worse than round 1's.
     let rounds = RobustSettings { rounds: 2, accept_rate: 1.01, ..rs };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let b = design_robust(&world, start, &rounds, &mut rng, &mut |_, _| true).unwrap();
+    let b = design_robust(&world, start, &Table2Family, &t2, &rounds, &mut rng, &mut |_, _| true)
+        .unwrap();
     assert_eq!(b.evaluations, 2 * a.evaluations, "seed 3, two rounds");
     // The start is a finalist of both rounds; its validation is not run again.
     assert_eq!(b.trials, 2 * a.trials - 6, "seed 3, two rounds");
@@ -288,7 +290,7 @@ fn support_set_files_load_as_toml_or_json_and_name_a_bad_candidate() {
 #[test]
 fn the_shipped_start_is_the_shipped_robust_plan_and_the_default_is_table2_with_its_press_on_the_rotated_peg()
  {
-    use mesopush_plan::{RobustSettings, Skeleton};
+    use mesopush_plan::{Init, RobustSearch, Skeleton};
     let shipped = Plan::load(std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../plans/robust.toml"
@@ -296,8 +298,7 @@ fn the_shipped_start_is_the_shipped_robust_plan_and_the_default_is_table2_with_i
     .unwrap();
     let start = Plan::table2().peg_start;
     let best = Skeleton::best_known().to_plan("", start);
-    let d = RobustSettings::default();
-    assert_eq!((d.initial, d.press_on_rotated), (Skeleton::table2_like(), true));
+    assert_eq!(RobustSearch::default().init, Init::Table2 { press_on_rotated: true });
     assert_eq!(best.probe_start_um, shipped.probe_start_um);
     assert_eq!(best.moves_um.len(), shipped.moves_um.len());
     for (a, b) in best.moves_um.iter().zip(&shipped.moves_um) {

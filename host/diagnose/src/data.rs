@@ -64,7 +64,7 @@ struct TipRow {
 /// An open plate: no walls (the goal is a token square far away).
 pub fn open_plate() -> Fixture {
     let goal = rect(-20_000.0, -20_000.0, -19_000.0, -19_000.0).expect("constant square");
-    Fixture { walls: vec![], goal, insert_depth_um: 100.0 }
+    Fixture { walls: vec![], goal, insert_depth_um: 100.0, goal_whole_part: false }
 }
 
 fn read_tips(dir: &Path, n: usize) -> Result<Vec<Option<Vec2>>, Error> {

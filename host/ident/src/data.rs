@@ -76,7 +76,7 @@ pub fn open_plate() -> Fixture {
         Vec2::new(far, far + side),
     ])
     .expect("constant square");
-    Fixture { walls: Vec::new(), goal, insert_depth_um: 0.0 }
+    Fixture { walls: Vec::new(), goal, insert_depth_um: 0.0, goal_whole_part: false }
 }
 
 /// The probe position on `path` at `t_s` (linear between waypoints, clamped at the ends).

@@ -5,7 +5,8 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use mesopush_plan::{
-    MonteCarlo, RobustSettings, RrtSettings, UncertainWorld, Uncertainty, design_robust, plan_rrt,
+    MonteCarlo, RobustSettings, RrtSettings, Skeleton, Table2Family, UncertainWorld, Uncertainty,
+    design_robust, plan_rrt,
 };
 use mesopush_sim::{Fixture, Model, Plan, SimSettings, Simulator};
 use rand::SeedableRng;
@@ -44,7 +45,11 @@ fn rrt(c: &mut Criterion) {
         b.iter(|| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
             let start = Plan::table2().peg_start;
-            black_box(design_robust(&world, start, &rs, &mut rng, &mut |_, _| true).expect("cem"))
+            let t2 = Skeleton::table2_like().params;
+            let f = &Table2Family;
+            black_box(
+                design_robust(&world, start, f, &t2, &rs, &mut rng, &mut |_, _| true).expect("cem"),
+            )
         })
     });
     g.finish();

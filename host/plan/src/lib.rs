@@ -43,19 +43,22 @@ pub mod sampler;
 pub mod shard;
 
 mod cem;
+pub mod family;
 pub mod press_start;
 pub mod robust;
 pub mod robust_search;
 pub mod robust_settings;
 pub mod score;
 pub mod skeleton;
+pub mod wall_press;
 pub mod world;
 
 pub use error::Error;
+pub use family::{PathFamily, PlanFamily, Table2Family};
 pub use feasible::plan_is_feasible;
 pub use montecarlo::{MonteCarlo, SampleOutcome, SuccessEstimate};
 pub use robust::{RobustResult, design_robust};
-pub use robust_search::{RobustReport, RobustSearch, search_robust};
+pub use robust_search::{Init, RobustReport, RobustSearch, search_robust};
 pub use robust_settings::RobustSettings;
 pub use rrt::{RrtProgress, RrtResult, RrtRun, plan_rrt, plan_rrt_within};
 pub use rrt_settings::RrtSettings;

@@ -1,5 +1,5 @@
 //! Robust plans by design (beyond the paper, which tuned Table II by hand): the cross-entropy
-//! method over the [`Skeleton`]'s parameters, scoring each candidate by its Monte Carlo
+//! method over a [`PlanFamily`]'s parameters (Table II's skeleton, or the moves of any plan), scoring each candidate by its Monte Carlo
 //! success count on one common set of sampled worlds (common random numbers, so candidates
 //! are compared on the same draws and the score is deterministic for a seed).
 //!
@@ -23,13 +23,12 @@
 //! stays within it.
 
 use crate::Error;
-use crate::cem::{Counts, cem_round};
+use crate::cem::{Counts, Ctx, cem_round, generation_replays};
+use crate::family::PlanFamily;
 use crate::montecarlo::draws;
-use crate::press_start::press_on_rotated_peg;
 use crate::robust_settings::RobustSettings;
 use crate::sampler::Draw;
 use crate::score::{count, outcomes};
-use crate::skeleton::Skeleton;
 use crate::world::UncertainWorld;
 use mesopush_sim::plan::PegStart;
 use mesopush_sim::{Plan, SimSettings, Simulator, replay};
@@ -40,8 +39,8 @@ use rand::RngExt;
 pub struct RobustResult {
     /// The best plan.
     pub plan: Plan,
-    /// Its skeleton parameters.
-    pub skeleton: Skeleton,
+    /// Its parameters in the family searched (names: [`PlanFamily::names`]).
+    pub params: Vec<f64>,
     /// Its success rate on the training worlds (optimistic: it was selected on them).
     pub training_rate: f64,
     /// Its success rate on the validation worlds (mildly optimistic: the best of
@@ -60,6 +59,11 @@ pub struct RobustResult {
     pub generations: usize,
     /// Rounds run (the last may have been cut short).
     pub rounds: usize,
+    /// Whether the replay budget ([`RobustSettings::max_replays`]) ended the search before
+    /// its last generation.
+    pub out_of_budget: bool,
+    /// Whether the caller's `progress` stopped the search (a wall-clock limit).
+    pub stopped_early: bool,
 }
 
 /// How many standard deviations a finalist must beat the start by, paired on the same
@@ -75,47 +79,62 @@ fn clearly_better(a: &[bool], b: &[bool]) -> bool {
     wins - losses > REPLACE_START_Z * (wins + losses).sqrt()
 }
 
-/// Optimises the skeleton for a peg starting at `start`; `progress(generation, best_rate)`
-/// may return `false` to stop after a generation (validation still runs).
+/// Optimises `family`'s parameters from `initial` for a peg starting at `start`;
+/// `progress(generation, best_rate)` may return `false` to stop after a generation
+/// (validation still runs).
 ///
 /// The search runs in rounds of [`RobustSettings::generations`] generations, each started
-/// afresh at [`RobustSettings::initial`]; after each round its finalists are validated, and another
-/// round runs only while the best validation rate is under [`RobustSettings::accept_rate`]
-/// (up to [`RobustSettings::rounds`]). The most validated of all rounds' finalists (scored
-/// on the same validation worlds) are confirmed on fresh worlds, and the most successful over
-/// validation and confirmation wins.
+/// afresh at `initial`; after each round its finalists are validated, and another round
+/// runs only while the best validation rate is under [`RobustSettings::accept_rate`] (up to
+/// [`RobustSettings::rounds`], and while the replay budget lasts). The most validated of all
+/// rounds' finalists (scored on the same validation worlds) are confirmed on fresh worlds,
+/// and the most successful over validation and confirmation wins.
 pub fn design_robust(
     world: &UncertainWorld<'_>,
     start: PegStart,
+    family: &dyn PlanFamily,
+    initial: &[f64],
     settings: &RobustSettings,
     rng: &mut impl rand::Rng,
     progress: &mut dyn FnMut(usize, f64) -> bool,
 ) -> Result<RobustResult, Error> {
     world.model.validate()?;
-    let settings = &if settings.press_on_rotated {
-        let initial = press_on_rotated_peg(settings.initial, world, start)?;
-        RobustSettings { initial, press_on_rotated: false, ..*settings }
-    } else {
-        *settings
-    };
+    if initial.len() != family.bounds().len() {
+        return Err(Error::invalid(
+            "initial",
+            format!("{} parameters given, the family has {}", initial.len(), family.bounds().len()),
+        ));
+    }
     let coarse = SimSettings {
         step_um: world.settings.step_um.max(settings.train_step_um),
         ..world.settings.clone()
     };
     let fine = world;
     let world = &UncertainWorld { settings: &coarse, ..*fine };
+    let ctx = Ctx { world, start, family, initial };
     let n_val = settings.validation_samples;
     // Drawn after the first round's search (the draw order of the single-round design).
     let mut val_worlds: Option<Vec<Draw>> = None;
     let rounds = if n_val == 0 { 1 } else { settings.rounds.max(1) };
     let mut counts = Counts::default();
-    // (skeleton, training successes, validation successes)
-    let mut pool: Vec<(Skeleton, usize, Vec<bool>)> = Vec::new();
-    for _ in 0..rounds {
+    // (parameters, training successes, validation successes)
+    let mut pool: Vec<Finalist> = Vec::new();
+    // What must fit after any generation: this round's final mean and validation, the
+    // confirmation at the end.
+    let reserve = settings.samples.max(2)
+        + settings.finalists.max(1) * n_val
+        + settings.confirm_top.max(1) * settings.confirm_samples;
+    for r in 0..rounds {
+        // A later round starts only if it can run at least one generation.
+        let round_start = settings.samples.max(2) + generation_replays(settings) + reserve;
+        if r > 0 && counts.replays + round_start > settings.max_replays {
+            counts.out_of_budget = true;
+            break;
+        }
         counts.rounds += 1;
-        let finalists = cem_round(world, start, settings, rng, progress, &mut counts);
+        let finalists = cem_round(&ctx, settings, rng, progress, reserve, &mut counts);
         if n_val == 0 || finalists.len() == 1 && rounds == 1 {
-            pool.extend(finalists.iter().take(1).map(|f| (f.0, f.1, Vec::new())));
+            pool.extend(finalists.into_iter().take(1).map(|f| (f.0, f.1, Vec::new())));
             break;
         }
         let val_worlds = val_worlds.get_or_insert_with(|| {
@@ -123,24 +142,27 @@ pub fn design_robust(
         });
         // A finalist validated in an earlier round (the start is one in every round) keeps
         // its outcomes: the worlds are the same.
-        let fresh: Vec<_> = finalists.iter().filter(|f| pool.iter().all(|p| p.0 != f.0)).collect();
-        let skel: Vec<Skeleton> = fresh.iter().map(|f| f.0).collect();
-        let v = outcomes(&skel, val_worlds, fine, start);
-        counts.replays += skel.len() * n_val;
-        pool.extend(fresh.iter().zip(v).map(|(f, v)| (f.0, f.1, v)));
+        let fresh: Vec<_> =
+            finalists.into_iter().filter(|f| pool.iter().all(|p| p.0 != f.0)).collect();
+        let cands: Vec<Vec<f64>> = fresh.iter().map(|f| f.0.clone()).collect();
+        let v = outcomes(family, &cands, val_worlds, fine, start);
+        counts.replays += cands.len() * n_val;
+        pool.extend(fresh.into_iter().zip(v).map(|(f, v)| (f.0, f.1, v)));
         let best = pool.iter().map(|p| count(&p.2)).max().unwrap_or(0);
         if counts.stopped || best as f64 >= settings.accept_rate * n_val as f64 {
             break;
         }
     }
     let validated = n_val > 0 && pool.len() > 1;
-    let (i, confirmed) = choose(&pool, fine, start, settings, rng, &mut counts);
-    let (best, train, val) = (pool[i].0, pool[i].1, count(&pool[i].2));
+    let initial = family.clamped(initial);
+    let (i, confirmed) = choose(&pool, &ctx_fine(&ctx, fine), &initial, settings, rng, &mut counts);
+    let (train, val) = (pool[i].1, count(&pool[i].2));
+    let best = pool.swap_remove(i).0;
     let name =
-        format!("robust plan (CEM over the Table II skeleton, {} candidates)", counts.evaluations);
+        format!("robust plan (CEM over {}, {} candidates)", family.describe(), counts.evaluations);
     Ok(RobustResult {
-        plan: best.to_plan(&name, start),
-        skeleton: best,
+        plan: family.plan(&best, start, &name),
+        params: best,
         training_rate: train as f64 / settings.samples.max(2) as f64,
         validation_rate: validated.then(|| val as f64 / n_val as f64),
         confirmation_rate: confirmed,
@@ -148,24 +170,31 @@ pub fn design_robust(
         trials: counts.replays,
         generations: counts.generations,
         rounds: counts.rounds,
+        out_of_budget: counts.out_of_budget,
+        stopped_early: counts.stopped,
     })
 }
 
-/// A validated finalist: skeleton, training successes, validation outcomes.
-type Finalist = (Skeleton, usize, Vec<bool>);
+/// `ctx` on the fine (validation) world.
+fn ctx_fine<'a, 'w>(ctx: &Ctx<'a, 'w>, fine: &'a UncertainWorld<'w>) -> Ctx<'a, 'w> {
+    Ctx { world: fine, start: ctx.start, family: ctx.family, initial: ctx.initial }
+}
+
+/// A validated finalist: parameters, training successes, validation outcomes.
+type Finalist = (Vec<f64>, usize, Vec<bool>);
 
 /// The winner's index in `pool`, and its confirmation rate when there was a confirmation.
 ///
 /// Finalists are ranked by validation successes (ties: the better trained); a finalist
-/// replaces the start only when it beats it clearly on the same worlds. The best
-/// [`RobustSettings::confirm_top`] within reach of the first are then re-scored on fresh confirmation worlds and the
-/// most successful over both sets wins (the start rule applied again on both sets): the
-/// most validated of many finalists owes part of its validation score to luck, and a
-/// second, independent set halves that luck's weight in the choice.
+/// replaces the start (`initial`) only when it beats it clearly on the same worlds. The
+/// best [`RobustSettings::confirm_top`] within reach of the first are then re-scored on
+/// fresh confirmation worlds and the most successful over both sets wins (the start rule
+/// applied again on both sets): the most validated of many finalists owes part of its
+/// validation score to luck, and a second, independent set halves that luck's weight.
 fn choose(
     pool: &[Finalist],
-    fine: &UncertainWorld<'_>,
-    start: PegStart,
+    fine: &Ctx<'_, '_>,
+    initial: &[f64],
     settings: &RobustSettings,
     rng: &mut impl rand::Rng,
     counts: &mut Counts,
@@ -173,10 +202,10 @@ fn choose(
     // Finalists whose nominal replay bends the needle beyond its limit are out while any
     // finalist stays within it (if none does, `plan robust` refuses the winner).
     // (Not counted in `trials`, which counts training and validation replays.)
-    let safe: Vec<bool> = pool.iter().map(|p| nominally_within_limit(fine, start, &p.0)).collect();
+    let safe: Vec<bool> = pool.iter().map(|p| nominally_within_limit(fine, &p.0)).collect();
     let any_safe = safe.contains(&true);
     let ok = |i: usize| !any_safe || safe[i];
-    let base = pool.iter().position(|p| p.0 == settings.initial.clamped()).filter(|&b| ok(b));
+    let base = pool.iter().position(|p| p.0 == initial).filter(|&b| ok(b));
     let eligible =
         |i: usize| ok(i) && base.is_none_or(|b| i == b || clearly_better(&pool[i].2, &pool[b].2));
     let mut ranked: Vec<usize> = (0..pool.len()).filter(|&i| eligible(i)).collect();
@@ -193,10 +222,11 @@ fn choose(
     if ranked.len() < 2 || n_conf == 0 || !validated {
         return (ranked.first().copied().unwrap_or(0), None);
     }
-    let worlds = draws(fine.model, &fine.uncertainty, fine.supports, n_conf, rng.random());
-    let skel: Vec<Skeleton> = ranked.iter().map(|&i| pool[i].0).collect();
-    let conf = outcomes(&skel, &worlds, fine, start);
-    counts.replays += skel.len() * n_conf;
+    let w = fine.world;
+    let worlds = draws(w.model, &w.uncertainty, w.supports, n_conf, rng.random());
+    let cands: Vec<Vec<f64>> = ranked.iter().map(|&i| pool[i].0.clone()).collect();
+    let conf = outcomes(fine.family, &cands, &worlds, w, fine.start);
+    counts.replays += cands.len() * n_conf;
     let both: Vec<Vec<bool>> =
         ranked.iter().zip(&conf).map(|(&i, c)| [pool[i].2.as_slice(), c].concat()).collect();
     let k_base = base.and_then(|b| ranked.iter().position(|&i| i == b));
@@ -204,11 +234,12 @@ fn choose(
     (ranked[k], Some(count(&conf[k]) as f64 / n_conf as f64))
 }
 
-/// Whether `skel`'s plan, replayed in the nominal world (the fine settings), keeps the needle
-/// within the model's limit (a replay the simulator cannot run does not).
-fn nominally_within_limit(fine: &UncertainWorld<'_>, start: PegStart, skel: &Skeleton) -> bool {
-    let plan = skel.to_plan("", start);
-    Simulator::new(fine.model.clone(), fine.fixture.clone(), fine.settings.clone())
+/// Whether the plan of `params`, replayed in the nominal world (the fine settings), keeps
+/// the needle within the model's limit (a replay the simulator cannot run does not).
+fn nominally_within_limit(fine: &Ctx<'_, '_>, params: &[f64]) -> bool {
+    let plan = fine.family.plan(params, fine.start, "");
+    let w = fine.world;
+    Simulator::new(w.model.clone(), w.fixture.clone(), w.settings.clone())
         .and_then(|mut sim| replay(&mut sim, &plan, None))
         .is_ok_and(|r| r.overload.is_none())
 }

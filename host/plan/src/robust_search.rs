@@ -1,30 +1,71 @@
-//! The robust design as `mesopush plan robust` runs it: seeded, under a wall-clock budget
-//! that stops the search while the validation and confirmation of its finalists still fit,
-//! then checked on fresh Monte Carlo draws (a master seed the design never drew from) and
-//! replayed once nominally. Returns everything the command reports.
+//! The robust design as `mesopush plan robust` runs it: seeded, from a chosen start (Table
+//! II's skeleton, the shipped design, or any plan's moves), under a budget of replays (so the
+//! same seed gives the same plan on any machine), optionally cut short by a wall-clock limit
+//! (which then says so), then checked on fresh Monte Carlo draws (a master seed the design
+//! never drew from) and replayed once nominally. Returns everything the command reports.
 
 use crate::Error;
+use crate::family::{PathFamily, PlanFamily, Table2Family, default_radius_um};
 use crate::feasible::plan_is_feasible;
 use crate::montecarlo::{MonteCarlo, SuccessEstimate};
+use crate::press_start::press_on_rotated_peg;
 use crate::pushes::pushing_moves;
 use crate::robust::{RobustResult, design_robust};
 use crate::robust_settings::RobustSettings;
+use crate::skeleton::Skeleton;
+use crate::wall_press::{Screened, WallPressSettings, screen_wall_presses};
 use crate::world::UncertainWorld;
 use mesopush_sim::plan::PegStart;
-use mesopush_sim::{Overload, Simulator, replay};
+use mesopush_sim::{Overload, Plan, Simulator, replay};
 use rand::SeedableRng;
 use std::time::Instant;
 
+/// Where a robust search starts, and so which family of plans it searches.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Init {
+    /// Table II's skeleton from the paper's numbers ([`Skeleton::table2_like`]);
+    /// `press_on_rotated`: its press first moved onto the nominally rotated peg
+    /// ([`press_on_rotated_peg`]).
+    Table2 {
+        /// Move the press onto the rotated peg before the search.
+        press_on_rotated: bool,
+    },
+    /// Table II's skeleton from the shipped design ([`Skeleton::best_known`]).
+    Shipped,
+    /// Any plan (an RRT's, a file's): every move's end free within `radius_um` along its
+    /// axis ([`PathFamily`]).
+    Plan {
+        /// The plan the search starts from.
+        plan: Plan,
+        /// How far each move's end may move, µm.
+        radius_um: f64,
+    },
+}
+
+impl Default for Init {
+    fn default() -> Self {
+        Init::Table2 { press_on_rotated: true }
+    }
+}
+
 /// A robust search with its budget and its check (plain data, documented defaults).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct RobustSearch {
-    /// The design's settings.
+    /// The design's settings (its replay budget: [`RobustSettings::max_replays`]).
     pub design: RobustSettings,
+    /// Where the search starts. Default: Table II's numbers, press on the rotated peg.
+    pub init: Init,
+    /// Before the search, try a press against a wall after each push of the start plan
+    /// ([`crate::wall_press`]) and search from the best variant, if one beats the start on
+    /// the screening worlds. Default none.
+    pub wall_press: Option<WallPressSettings>,
     /// Seed of the design's ChaCha8 stream (same seed, same plan). Default 1.
     pub seed: u64,
-    /// Wall-clock budget, s: no generation starts that would leave too little time for the
-    /// validation and confirmation after it. Default 60.
-    pub time_limit_s: f64,
+    /// Wall-clock limit, s: when it passes, no further generation starts (the finalists
+    /// are still validated and confirmed) and the report says `stopped_by_time`. The
+    /// result then depends on the machine's speed. Default none: the replay budget alone
+    /// decides.
+    pub time_limit_s: Option<f64>,
     /// Fresh Monte Carlo trials of the designed plan. Default 400 (at least 1 run).
     pub check_samples: usize,
     /// Master seed of the check; `None`: [`check_seed_for`] the design's seed.
@@ -35,8 +76,10 @@ impl Default for RobustSearch {
     fn default() -> Self {
         Self {
             design: RobustSettings::default(),
+            init: Init::default(),
+            wall_press: None,
             seed: 1,
-            time_limit_s: 60.0,
+            time_limit_s: None,
             check_samples: 400,
             check_seed: None,
         }
@@ -52,8 +95,10 @@ pub fn check_seed_for(seed: u64) -> u64 {
 /// What a robust search designed and how it checked.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RobustReport {
-    /// The design: plan, skeleton, training / validation / confirmation rates and counts.
+    /// The design: plan, parameters, training / validation / confirmation rates and counts.
     pub design: RobustResult,
+    /// Names of the design's parameters ([`PlanFamily::names`]).
+    pub param_names: Vec<String>,
     /// The fresh check of the designed plan.
     pub check: SuccessEstimate,
     /// The check's master seed.
@@ -68,14 +113,49 @@ pub struct RobustReport {
     pub pushes: usize,
     /// Wall-clock time of the design (not the check), ms.
     pub planning_ms: f64,
-    /// Whether the budget stopped the search before its last generation.
-    pub time_limited: bool,
+    /// Whether the wall-clock limit stopped the search before its budget or its last
+    /// generation (the plan then depends on the machine's speed).
+    pub stopped_by_time: bool,
     /// Training worlds per candidate ([`RobustSettings::samples`]).
     pub training_samples: usize,
     /// Validation worlds ([`RobustSettings::validation_samples`]).
     pub validation_samples: usize,
     /// Confirmation worlds ([`RobustSettings::confirm_samples`]).
     pub confirmation_samples: usize,
+    /// The replay budget ([`RobustSettings::max_replays`]).
+    pub max_replays: usize,
+    /// The wall-press screening, when asked for.
+    pub wall_press: Option<Screened>,
+}
+
+/// The seed of the wall-press screening's worlds for design seed `seed` (apart from the
+/// design's own stream, so asking for the screening leaves the design's draws unchanged).
+pub fn screen_seed_for(seed: u64) -> u64 {
+    seed.wrapping_add(0x0057_A11F_0CE5)
+}
+
+/// The family `init` searches, and its start parameters for a peg starting at `start`.
+pub fn family_for(
+    init: &Init,
+    world: &UncertainWorld<'_>,
+    start: PegStart,
+) -> Result<(Box<dyn PlanFamily>, Vec<f64>), Error> {
+    Ok(match init {
+        Init::Table2 { press_on_rotated: false } => {
+            (Box::new(Table2Family), Skeleton::table2_like().params.to_vec())
+        }
+        Init::Table2 { press_on_rotated: true } => {
+            let s = press_on_rotated_peg(Skeleton::table2_like(), world, start)?;
+            (Box::new(Table2Family), s.params.to_vec())
+        }
+        Init::Shipped => (Box::new(Table2Family), Skeleton::best_known().params.to_vec()),
+        Init::Plan { plan, radius_um } => {
+            plan.validate()?;
+            let f = PathFamily::around(plan, *radius_um);
+            let initial = f.initial().to_vec();
+            (Box::new(f), initial)
+        }
+    })
 }
 
 /// Designs a robust plan for a peg starting at `start` in `world` under `search`'s budget,
@@ -86,18 +166,36 @@ pub fn search_robust(
     search: &RobustSearch,
     progress: &mut dyn FnMut(usize, f64),
 ) -> Result<RobustReport, Error> {
-    let settings = &search.design;
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(search.seed);
+    let mut settings = search.design;
+    let (mut family, mut initial) = family_for(&search.init, world, start)?;
     let t0 = Instant::now();
-    let mut time_limited = false;
+    let mut screened = None;
+    if let Some(wp) = &search.wall_press {
+        let plan = family.plan(&initial, start, "start");
+        let s = screen_wall_presses(&plan, start, world, wp, screen_seed_for(search.seed))?;
+        if let Some((best, n)) = &s.best
+            && *n > s.without
+        {
+            let radius_um = match &search.init {
+                Init::Plan { radius_um, .. } => *radius_um,
+                _ => default_radius_um(world.model.part.polygon()),
+            };
+            let f = PathFamily::around(&best.plan, radius_um);
+            initial = f.initial().to_vec();
+            family = Box::new(f);
+        }
+        // The screening's replays come out of the design's budget.
+        settings.max_replays = settings.max_replays.saturating_sub(s.samples * (s.variants + 1));
+        screened = Some(s);
+    }
+    let settings = &settings;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(search.seed);
     let mut on_progress = |g: usize, best: f64| {
         progress(g, best);
-        let elapsed_s = t0.elapsed().as_secs_f64();
-        let go_on = fits_another_generation(settings, g, elapsed_s, search.time_limit_s);
-        time_limited |= !go_on && g < settings.generations * settings.rounds;
-        go_on
+        search.time_limit_s.is_none_or(|limit| t0.elapsed().as_secs_f64() < limit)
     };
-    let design = design_robust(world, start, settings, &mut rng, &mut on_progress)?;
+    let design =
+        design_robust(world, start, &*family, &initial, settings, &mut rng, &mut on_progress)?;
     let planning_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mut sim =
         Simulator::new(world.model.clone(), world.fixture.clone(), world.settings.clone())?;
@@ -115,6 +213,8 @@ pub fn search_robust(
     let nominal = replay(&mut sim, &design.plan, None)?;
     let pushes = pushing_moves(&nominal);
     Ok(RobustReport {
+        param_names: family.names(),
+        stopped_by_time: design.stopped_early,
         design,
         check,
         check_seed,
@@ -122,33 +222,10 @@ pub fn search_robust(
         nominal_overload: nominal.overload,
         pushes,
         planning_ms,
-        time_limited,
         training_samples: settings.samples,
         validation_samples: settings.validation_samples,
         confirmation_samples: settings.confirm_samples,
+        max_replays: settings.max_replays,
+        wall_press: screened,
     })
-}
-
-/// Whether generation `g + 1` and the validation still fit in `limit_s` after `elapsed_s`.
-fn fits_another_generation(
-    settings: &RobustSettings,
-    g: usize,
-    elapsed_s: f64,
-    limit_s: f64,
-) -> bool {
-    // A generation is about 16 candidates on 96 worlds × 3/4 each (racing).
-    let per_gen = (settings.population * settings.samples * 3 / 4).max(1) as f64;
-    let val = (settings.finalists * settings.validation_samples) as f64;
-    let conf = (settings.confirm_top * settings.confirm_samples) as f64;
-    let gen_s = elapsed_s / g.max(1) as f64;
-    // Validation runs at the fine step, on the default box: about 1.7 times the cost of a
-    // training replay (one core: 1000 fine replays take 3.35 s in `mesopush robustness`, and
-    // one search ran 7400 training and 6000 fine replays in 35 s); 2 keeps a margin (3 stopped
-    // that search after 6 of its 12 generations). At the end of a round its own validation
-    // runs before the next round's first generation: reserve both. The confirmation runs
-    // once, at the very end.
-    let fine_s = |replays: f64| gen_s * 2.0 * replays / per_gen;
-    let round_end = g.is_multiple_of(settings.generations.max(1));
-    let next = gen_s + fine_s(val * if round_end { 2.0 } else { 1.0 } + conf);
-    elapsed_s + 1.2 * next < limit_s
 }

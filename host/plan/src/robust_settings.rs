@@ -2,8 +2,6 @@
 //! (`cem`) and the rounds, validation and confirmation around it (`robust`) both read them,
 //! so they sit below both.
 
-use crate::skeleton::Skeleton;
-
 /// Optimiser settings (plain data, documented defaults).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RobustSettings {
@@ -37,10 +35,10 @@ pub struct RobustSettings {
     /// check's, so success rates do not saturate near 100 % and the search prefers plans with
     /// margin. Default 1.3 (1.5 was worse on the 1000-sample check, docs/planning.md).
     pub train_scale: f64,
-    /// Most CEM rounds (each from [`RobustSettings::initial`], with its own finalists validated);
+    /// Most CEM rounds (each from the search's initial parameters, its finalists validated);
     /// another round runs only while no finalist reaches `accept_rate` on the validation
     /// worlds. Each round is an independent search (its own training worlds), so rounds
-    /// remove the seed-to-seed spread of a single search. Default 3 (the caller's time limit
+    /// remove the seed-to-seed spread of a single search. Default 3 (the replay budget
     /// usually cuts the third; the best validated finalist so far is returned).
     pub rounds: usize,
     /// Validation success rate that ends the search after a round. Default 0.98: the most
@@ -57,18 +55,12 @@ pub struct RobustSettings {
     /// early (a perfect training score still leaves room to find a more robust candidate).
     /// Default 1.0.
     pub target_rate: f64,
-    /// Where every round's search starts (the first generation's sampling mean, scored and
-    /// always a finalist, after [`RobustSettings::press_on_rotated`]). Default
-    /// [`Skeleton::table2_like`], the paper's numbers: the search designs the plan.
-    /// [`Skeleton::best_known`] (the parameters of `plans/robust.toml`) refines the shipped
-    /// design instead; a search started there mostly returns it.
-    pub initial: Skeleton,
-    /// Before the search, move the press of `initial` onto the top edge of the peg as its
-    /// rotation leaves it in the nominal world, a quarter of the edge in from its right end
-    /// (`press_start`). Default true: from Table II's press (the middle of the peg,
-    /// at the height that centres a level one), searches found the press's small useful
-    /// region in about half of their rounds (docs/planning.md).
-    pub press_on_rotated: bool,
+    /// Budget of the whole design in plan replays (training, validation and confirmation
+    /// together): a generation or round starts only if it and everything the search must
+    /// still run after it fit. The budget counts simulations, not seconds, so the same seed
+    /// and settings give the same plan on any machine and thread count. Default 30 000
+    /// (about 40 s on two cores for Table II's task, docs/planning.md).
+    pub max_replays: usize,
 }
 
 impl Default for RobustSettings {
@@ -88,8 +80,7 @@ impl Default for RobustSettings {
             confirm_top: 3,
             confirm_samples: 1000,
             target_rate: 1.0,
-            initial: Skeleton::table2_like(),
-            press_on_rotated: true,
+            max_replays: 30_000,
         }
     }
 }

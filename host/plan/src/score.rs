@@ -1,11 +1,12 @@
-//! Scoring plan skeletons on sampled worlds: every candidate replayed in every world as one
+//! Scoring candidate plans (points of a [`PlanFamily`]) on sampled worlds: every candidate replayed in every world as one
 //! flat parallel batch (rayon), collected in index order, so a score does not depend on the
 //! thread count. The CEM races candidates with it; the robust design validates and confirms
 //! its finalists with it.
 
+use crate::clearance::first_wall_violation;
+use crate::family::PlanFamily;
 use crate::montecarlo::run_trial;
 use crate::sampler::Draw;
-use crate::skeleton::Skeleton;
 use crate::world::UncertainWorld;
 use mesopush_sim::Plan;
 use mesopush_sim::plan::PegStart;
@@ -13,26 +14,40 @@ use rayon::prelude::*;
 
 /// Success counts of every candidate on `worlds`: one flat parallel batch, in order.
 pub fn successes(
-    cands: &[Skeleton],
+    family: &dyn PlanFamily,
+    cands: &[Vec<f64>],
     worlds: &[Draw],
     world: &UncertainWorld<'_>,
     start: PegStart,
 ) -> Vec<usize> {
-    outcomes(cands, worlds, world, start).iter().map(|o| count(o)).collect()
+    outcomes(family, cands, worlds, world, start).iter().map(|o| count(o)).collect()
 }
 
 /// Every candidate's outcome in every world of `worlds` (one flat parallel batch, in order).
+/// A candidate whose probe path runs into a wall fails every world unsimulated (the
+/// simulator ignores probe–wall contact; a rig would crash the needle).
 pub fn outcomes(
-    cands: &[Skeleton],
+    family: &dyn PlanFamily,
+    cands: &[Vec<f64>],
     worlds: &[Draw],
     world: &UncertainWorld<'_>,
     start: PegStart,
 ) -> Vec<Vec<bool>> {
-    let plans: Vec<Plan> = cands.iter().map(|s| s.to_plan("", start)).collect();
+    let plans: Vec<Plan> = cands.iter().map(|s| family.plan(s, start, "")).collect();
+    let r = world.model.probe_radius_um;
+    let clear: Vec<bool> = plans
+        .iter()
+        .map(|p| {
+            first_wall_violation(p.probe_start(), &p.moves_um, &world.fixture.walls, r).is_none()
+        })
+        .collect();
     let n = worlds.len();
     let ok: Vec<bool> = (0..plans.len() * n)
         .into_par_iter()
-        .map(|k| run_trial(&plans[k / n], &worlds[k % n], world.fixture, world.settings).inserted)
+        .map(|k| {
+            let (c, w) = (k / n, k % n);
+            clear[c] && run_trial(&plans[c], &worlds[w], world.fixture, world.settings).inserted
+        })
         .collect();
     ok.chunks(n.max(1)).map(<[bool]>::to_vec).collect()
 }

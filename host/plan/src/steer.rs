@@ -227,7 +227,10 @@ impl<'a> Steer<'a> {
             return Ok((None, false, 0));
         }
         let (mut at, mut sims) = (id, 0);
-        let dy = self.goal.y_um - pose.y_um;
+        // The goal for the part turned as it is (0 or π from the goal's orientation): a part
+        // whose centre of mass is off its outline's middle (a triangle) sits off-centre.
+        let goal = goal_pose_turned(self.sim, pose.theta_rad);
+        let dy = goal.y_um - pose.y_um;
         if dy.abs() > 5.0 {
             let di = if dy > 0.0 { 2 } else { 3 };
             let Some(ps) = self.push_through(&pose, di, pose.position()) else {
@@ -246,7 +249,7 @@ impl<'a> Steer<'a> {
         };
         sims += 1;
         let node = tree.nodes[at].clone();
-        let Some(ext) = self.extend(&node, &ps, pose.x_um - self.goal.x_um)? else {
+        let Some(ext) = self.extend(&node, &ps, pose.x_um - goal.x_um)? else {
             return Ok((None, false, sims));
         };
         let inserted = ext.inserted;
@@ -259,10 +262,23 @@ impl<'a> Steer<'a> {
     }
 }
 
-/// The goal pose for `sim`'s fixture: COM on the goal region's mid-line, `INSERT_EXTRA_UM`
-/// deeper than the insertion depth from its mouth (its largest x), aligned with x.
+/// The goal pose for `sim`'s fixture: aligned with x, the part's outline centred on the goal
+/// region's mid-line, its centre of mass `INSERT_EXTRA_UM` deeper than the insertion depth
+/// from the mouth (the goal's largest x) — with `goal_whole_part`, its outline's right end
+/// that deep.
 pub fn goal_pose(sim: &Simulator) -> Pose {
+    goal_pose_turned(sim, 0.0)
+}
+
+/// [`goal_pose`] for the part turned by the multiple of π nearest `theta_rad` (a part
+/// aligned with the channel either way round).
+pub fn goal_pose_turned(sim: &Simulator, theta_rad: f64) -> Pose {
     let f = sim.fixture();
     let (lo, hi) = f.goal.bounds();
-    Pose::new(hi.x - f.insert_depth_um - INSERT_EXTRA_UM, (lo.y + hi.y) / 2.0, 0.0)
+    let turn = (theta_rad / std::f64::consts::PI).round() * std::f64::consts::PI;
+    let outline = sim.model().part.polygon().transformed(&Pose::new(0.0, 0.0, turn));
+    let (plo, phi) = outline.bounds();
+    let right = if f.goal_whole_part { phi.x } else { 0.0 };
+    let x = hi.x - f.insert_depth_um - INSERT_EXTRA_UM - right;
+    Pose::new(x, (lo.y + hi.y) / 2.0 - (plo.y + phi.y) / 2.0, turn)
 }

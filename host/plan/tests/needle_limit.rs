@@ -67,6 +67,7 @@ fn wall_world() -> (Model, Fixture) {
         walls: vec![rect(WALL_X_UM, -2000.0, WALL_X_UM + 1000.0, 2000.0).unwrap()],
         goal: rect(50.0, -100.0, 150.0, 100.0).unwrap(),
         insert_depth_um: 1.0,
+        goal_whole_part: false,
     };
     (model, fixture)
 }

@@ -30,6 +30,11 @@ pub struct Fixture {
     /// How deep inside the goal the centre of mass must be, µm. Default 100.
     #[serde(default = "default_depth")]
     pub insert_depth_um: f64,
+    /// Whether the part's whole outline must also lie inside the goal (for parts that can
+    /// put their centre of mass deep into the goal while wedged across its mouth, as a
+    /// triangle can). Default false: the centre-of-mass rule alone (the paper's).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub goal_whole_part: bool,
 }
 
 fn default_depth() -> f64 {
@@ -126,7 +131,7 @@ impl Fixture {
             push_rect(xl, narrow_bottom, p.x_step_um, yb)?;
         }
         let goal = rect(xl, p.narrow_top_um, p.x_step_um, narrow_bottom)?;
-        Ok(Fixture { walls, goal, insert_depth_um: default_depth() })
+        Ok(Fixture { walls, goal, insert_depth_um: default_depth(), goal_whole_part: false })
     }
 
     /// Loads and validates a fixture TOML (`walls = [[[x, y], ...], ...]`,
@@ -157,9 +162,20 @@ impl Fixture {
         Ok(())
     }
 
-    /// Whether a peg whose centre of mass is at `com` counts as inserted.
+    /// Whether a peg whose centre of mass is at `com` counts as inserted by the
+    /// centre-of-mass rule (all a fixture asks unless `goal_whole_part`; see
+    /// [`Fixture::part_inserted`]).
     pub fn inserted(&self, com: &Vec2) -> bool {
         self.goal.signed_distance(com) <= -self.insert_depth_um
+    }
+
+    /// Whether a part whose outline (at its pose) is `outline` and whose centre of mass is
+    /// `com` counts as inserted: the centre-of-mass rule, and with `goal_whole_part` every
+    /// vertex of the outline inside the goal too.
+    pub fn part_inserted(&self, outline: &ConvexPolygon, com: &Vec2) -> bool {
+        self.inserted(com)
+            && (!self.goal_whole_part
+                || outline.vertices().iter().all(|v| self.goal.contains(v, 0.0)))
     }
 }
 
@@ -190,6 +206,28 @@ mod tests {
         let square = Fixture::paper_with(&PaperFixtureParams { chamfer_um: 0.0, ..p }).unwrap();
         assert_eq!(square.walls.len(), f.walls.len());
         assert!(Fixture::paper_with(&PaperFixtureParams { chamfer_um: -1.0, ..p }).is_err());
+    }
+
+    #[test]
+    fn the_whole_part_rule_refuses_a_part_wedged_across_the_mouth_that_the_com_rule_passes() {
+        let mut f = Fixture::paper();
+        // A 300 µm square whose centre is 200 µm inside the channel, on its mid-line: in.
+        let sq = ConvexPolygon::rectangle(300.0, 300.0).unwrap();
+        let com = Vec2::new(325.0, 1495.0);
+        let inside = sq.translated(&com);
+        // The same centre with a long arm reaching back out of the mouth (a triangle wedged
+        // corner-first): the centre-of-mass rule passes it, the whole-part rule does not.
+        let wedged = ConvexPolygon::new(vec![
+            Vec2::new(-200.0, 1400.0),
+            Vec2::new(1200.0, 1450.0),
+            Vec2::new(-200.0, 1600.0),
+        ])
+        .unwrap();
+        assert!(f.part_inserted(&inside, &com) && f.part_inserted(&wedged, &com));
+        f.goal_whole_part = true;
+        assert!(f.part_inserted(&inside, &com));
+        assert!(!f.part_inserted(&wedged, &com));
+        assert!(!f.part_inserted(&inside, &Vec2::new(500.0, 1495.0)), "the depth rule still holds");
     }
 
     #[test]

@@ -51,6 +51,13 @@ pub const POSITION_UM: Allowed = Allowed::closed(-MAX_MOVE_UM, MAX_MOVE_UM, "µm
 /// Most moves a plan may have (bounded loops downstream).
 pub const MAX_MOVES: usize = 4096;
 
+impl PegStart {
+    /// The start as a pose in rad.
+    pub fn pose(&self) -> Pose {
+        Pose::new(self.x_um, self.y_um, self.theta_deg.to_radians())
+    }
+}
+
 impl Plan {
     /// Peg start as a pose in rad.
     pub fn peg_start_pose(&self) -> Pose {

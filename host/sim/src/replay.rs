@@ -141,7 +141,8 @@ pub fn replay(sim: &mut Simulator, plan: &Plan, start: Option<Pose>) -> Result<R
     out.max_probe_deflection_um = needle.peak_deflection_um();
     out.max_probe_force_weights = needle.max_force_weights();
     out.overload = needle.overload();
-    out.peg_in_goal = sim.fixture().inserted(&st.peg.position());
+    let outline = sim.model().part.polygon().transformed(&st.peg);
+    out.peg_in_goal = sim.fixture().part_inserted(&outline, &st.peg.position());
     out.inserted = out.peg_in_goal && out.overload.is_none();
     out.final_pose = st.peg;
     Ok(out)

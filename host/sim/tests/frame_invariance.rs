@@ -57,7 +57,12 @@ fn simulate(scene: &Scene, m: &Motion, friction: SupportFriction) -> Option<Vec<
         ..Model::default()
     };
     let goal = m.polygon(&rect(50_000.0, 50_000.0, 51_000.0, 51_000.0).unwrap());
-    let fixture = Fixture { walls: vec![m.polygon(&scene.wall)], goal, insert_depth_um: 1.0 };
+    let fixture = Fixture {
+        walls: vec![m.polygon(&scene.wall)],
+        goal,
+        insert_depth_um: 1.0,
+        goal_whole_part: false,
+    };
     let settings = SimSettings { support_friction: friction, ..SimSettings::default() };
     let mut sim = Simulator::new(model, fixture, settings).expect("a valid scene");
     let mut st = SimState::new(m.pose(&scene.peg), m.point(scene.probe_start));

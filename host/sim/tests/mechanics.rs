@@ -10,7 +10,12 @@ use mesopush_sim::{Fixture, Model, SimSettings, SimState, Simulator, SupportDist
 const HALF_LEN: f64 = 807.5;
 
 fn open_plate() -> Fixture {
-    Fixture { walls: vec![], goal: rect(-1.0, -1.0, 1.0, 1.0).unwrap(), insert_depth_um: 100.0 }
+    Fixture {
+        walls: vec![],
+        goal: rect(-1.0, -1.0, 1.0, 1.0).unwrap(),
+        insert_depth_um: 100.0,
+        goal_whole_part: false,
+    }
 }
 
 fn model(mu_probe: f64) -> Model {

@@ -32,6 +32,7 @@ fn sim(limit_um: f64) -> Simulator {
         // The peg's COM ends at x = 92.5 µm, y = 0: inside, 57.5 µm from the goal's edge.
         goal: rect(50.0, -100.0, 150.0, 100.0).unwrap(),
         insert_depth_um: 1.0,
+        goal_whole_part: false,
     };
     Simulator::new(model, fixture, SimSettings::default()).unwrap()
 }

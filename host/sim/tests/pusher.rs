@@ -56,7 +56,7 @@ const IDENTITY: Motion = Motion { phi: 0.0, shift: Vec2::new(0.0, 0.0), k: 1.0 }
 fn open_plate(m: &Motion) -> Fixture {
     let far = rect(1e6, 1e6, 1e6 + 1000.0, 1e6 + 1000.0).unwrap();
     let goal = ConvexPolygon::new(far.vertices().iter().map(|v| m.point(*v)).collect()).unwrap();
-    Fixture { walls: vec![], goal, insert_depth_um: 1.0 }
+    Fixture { walls: vec![], goal, insert_depth_um: 1.0, goal_whole_part: false }
 }
 
 /// The part's poses at the path's waypoints, or `None` when the simulator refuses.

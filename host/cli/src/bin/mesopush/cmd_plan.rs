@@ -28,8 +28,9 @@ pub(crate) struct PlanArgs {
 enum PlanMode {
     /// The paper's RRT over simulated pushes (the default mode).
     Rrt(rrt::RrtArgs),
-    /// Optimise Table II's plan shape against the Monte Carlo success rate under the
-    /// paper's uncertainty, then check it on fresh draws (docs/planning.md).
+    /// Optimise a plan (Table II's shape, a plan file's or the RRT's moves) against the
+    /// Monte Carlo success rate under the paper's uncertainty, then check it on fresh draws
+    /// (docs/planning.md).
     Robust(robust::RobustArgs),
 }
 
@@ -51,9 +52,11 @@ struct CommonArgs {
     /// Peg start pose "x_um,y_um,theta_deg"; default: Table II's (2330, 1210, 89°).
     #[arg(long, value_parser = parse_pose)]
     start: Option<Pose>,
-    /// Wall-clock limit of the search, s.
-    #[arg(long, default_value_t = 60.0, value_parser = crate::ranges::real(Allowed::positive_to(1e6, "s")))]
-    time_limit_s: f64,
+    /// Wall-clock limit of the search, s. Default none: the search's own budget (RRT
+    /// iterations, robust replays) alone decides, and the same seed gives the same plan on
+    /// any machine and thread count; a limit that stops the search says so.
+    #[arg(long, value_parser = crate::ranges::real(Allowed::positive_to(1e6, "s")))]
+    time_limit_s: Option<f64>,
     /// Also draw the plan's nominal replay (Fig. 6 style) to this PNG or SVG.
     #[arg(long)]
     figure: Option<PathBuf>,

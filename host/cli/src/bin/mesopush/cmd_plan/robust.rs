@@ -1,20 +1,25 @@
-//! `mesopush plan robust`: the robust search's settings from the flags, the search (with its
-//! budget and fresh check, `mesopush_plan::search_robust`), the plan written and the report
-//! printed — unless its nominal replay bends the needle beyond the model's limit: then no
+//! `mesopush plan robust`: the robust search's settings and start from the flags (Table II's
+//! skeleton, the shipped design, a plan file, or what the RRT finds), the search (with its
+//! replay budget and fresh check, `mesopush_plan::search_robust`), the plan written and the
+//! report printed — unless its nominal replay bends the needle beyond the model's limit: then no
 //! plan is written and the command exits 1 saying so.
 
 use super::{CommonArgs, bar, load_world};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use mesopush_core::check::Allowed;
+use mesopush_plan::family::default_radius_um;
 use mesopush_plan::figures::draw_replayed_plan;
-use mesopush_plan::skeleton::NAMES;
+use mesopush_plan::wall_press::WallPressSettings;
 use mesopush_plan::{
-    RobustReport, RobustSearch, RobustSettings, Skeleton, UncertainWorld, search_robust,
+    Init, RobustReport, RobustSearch, RobustSettings, RrtSettings, UncertainWorld, plan_rrt,
+    search_robust,
 };
-use mesopush_sim::Plan;
 use mesopush_sim::start::check_start;
+use mesopush_sim::{Plan, Simulator};
+use rand::SeedableRng;
 use serde_json::json;
+use std::path::PathBuf;
 
 /// The robust search's options.
 #[derive(Debug, Args)]
@@ -52,13 +57,36 @@ pub(super) struct RobustArgs {
     /// Table II's numbers with the press on the rotated peg's right end. It then refines that
     /// design and mostly returns it unchanged: a check of the shipped plan, not a design from
     /// scratch.
-    #[arg(long, conflicts_with = "from_table2")]
+    #[arg(long, conflicts_with_all = ["from_table2", "from_plan", "from_rrt"])]
     from_shipped: bool,
     /// Start the search at Table II's numbers alone (the press over the middle of the
     /// rotated peg, at the height that centres a level one); it finds a design of 95 % or
     /// more less often than the default start (docs/planning.md).
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["from_plan", "from_rrt"])]
     from_table2: bool,
+    /// Start from this plan TOML (any plan for this model and fixture) and search its moves:
+    /// every move's end may shift along its axis by up to --move-radius-um. The peg start is
+    /// the plan's unless --start is given.
+    #[arg(long, conflicts_with = "from_rrt")]
+    from_plan: Option<PathBuf>,
+    /// Start from the plan the paper's RRT finds (default RRT settings, --seed, --start) and
+    /// search its moves as --from-plan does: for parts and fixtures other than Table II's.
+    #[arg(long)]
+    from_rrt: bool,
+    /// How far each move's end may shift with --from-plan / --from-rrt, µm (default: 0.1 ×
+    /// the part's diameter, 189 µm for the paper's peg).
+    #[arg(long, value_parser = crate::ranges::real(Allowed::positive_to(1e5, "µm")))]
+    move_radius_um: Option<f64>,
+    /// Before the search, try pressing the part against a wall after each push of the start
+    /// plan (an uncertainty-removing move) and search from the best variant if it beats the
+    /// start on the screening worlds (its replays count against --max-replays).
+    #[arg(long)]
+    wall_press: bool,
+    /// Budget of the whole design in plan replays (training, validation, confirmation): the
+    /// search stops where the next generation would not fit. Same seed and budget, same
+    /// plan, on any machine and thread count.
+    #[arg(long, default_value_t = RobustSettings::default().max_replays, value_parser = crate::ranges::count(1, 1_000_000_000))]
+    max_replays: usize,
     /// Candidates per CEM generation.
     #[arg(long, default_value_t = RobustSettings::default().population, value_parser = crate::ranges::count(2, 1_000_000))]
     population: usize,
@@ -96,13 +124,20 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
         );
     }
     let mut sim = load_world(c.model.as_deref(), c.fixture.as_deref())?;
-    let mut start = Plan::table2().peg_start;
+    let from_plan = match &args.from_plan {
+        Some(path) => Some(Plan::load(path)?),
+        None => None,
+    };
+    let mut start = from_plan.as_ref().map_or(Plan::table2().peg_start, |p| p.peg_start);
     if let Some(p) = c.start {
-        check_start(&mut sim, "--start", p, None)?;
         (start.x_um, start.y_um, start.theta_deg) = (p.x_um, p.y_um, p.theta_rad.to_degrees());
     }
+    check_start(&mut sim, "the peg start (--start or the plan's)", start.pose(), None)?;
+    let init = init(args, &mut sim, from_plan, start)?;
     let search = RobustSearch {
         design: robust_settings(args),
+        init,
+        wall_press: args.wall_press.then(WallPressSettings::default),
         seed: c.seed,
         time_limit_s: c.time_limit_s,
         check_samples: args.check_samples,
@@ -133,6 +168,37 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
     Ok(())
 }
 
+/// Where the search starts: the flags' choice (the RRT run here when asked).
+fn init(
+    args: &RobustArgs,
+    sim: &mut Simulator,
+    from_plan: Option<Plan>,
+    start: mesopush_sim::plan::PegStart,
+) -> Result<Init> {
+    let radius_um = args.move_radius_um.unwrap_or(default_radius_um(sim.model().part.polygon()));
+    if let Some(plan) = from_plan {
+        return Ok(Init::Plan { plan, radius_um });
+    }
+    if args.from_rrt {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.common.seed);
+        let rrt = plan_rrt(sim, start.pose(), &RrtSettings::default(), &mut rng, &mut |_| true)?;
+        let Some(plan) = rrt.plan else {
+            let why = format!(
+                "the RRT found no plan to start from in {} iterations (seed {}); try another \
+                 --seed or --from-plan",
+                rrt.iterations, args.common.seed
+            );
+            return Err(crate::verdict::Negative(why).into());
+        };
+        return Ok(Init::Plan { plan, radius_um });
+    }
+    Ok(if args.from_shipped {
+        Init::Shipped
+    } else {
+        Init::Table2 { press_on_rotated: !args.from_table2 }
+    })
+}
+
 /// The optimiser's settings from the flags.
 fn robust_settings(args: &RobustArgs) -> RobustSettings {
     RobustSettings {
@@ -149,8 +215,7 @@ fn robust_settings(args: &RobustArgs) -> RobustSettings {
         confirm_top: args.confirm_top,
         confirm_samples: args.confirm_samples,
         elite: args.elite,
-        initial: if args.from_shipped { Skeleton::best_known() } else { Skeleton::table2_like() },
-        press_on_rotated: !(args.from_shipped || args.from_table2),
+        max_replays: args.max_replays,
         ..Default::default()
     }
 }
@@ -165,13 +230,23 @@ fn print(c: &CommonArgs, o: &RobustReport, written: bool) {
         "samples": est.samples, "check_seed": o.check_seed, "training_rate": r.training_rate,
         "validation_rate": r.validation_rate, "confirmation_rate": r.confirmation_rate,
         "replays": r.trials,
-        "time_limited": o.time_limited,
+        "stopped_by_time": o.stopped_by_time, "out_of_budget": r.out_of_budget,
+        "max_replays": o.max_replays,
         "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
         "iterations": r.evaluations, "generations": r.generations, "rounds": r.rounds,
         "validation_samples": o.validation_samples, "confirmation_samples": o.confirmation_samples,
         "planning_ms": o.planning_ms, "seed": c.seed,
         "plan": if written { Some(&c.out) } else { None },
-        "parameters": NAMES.iter().zip(r.skeleton.params)
+        "wall_press": o.wall_press.as_ref().map(|w| json!({
+            "screened_variants": w.variants, "screen_samples": w.samples,
+            "successes_without": w.without,
+            "best_successes": w.best.as_ref().map(|b| b.1),
+            "used": w.best.as_ref().is_some_and(|b| b.1 > w.without),
+            "after_move": w.best.as_ref().map(|b| b.0.after_move),
+            "direction": w.best.as_ref().map(|b| b.0.direction),
+            "gap_um": w.best.as_ref().map(|b| b.0.gap_um),
+        })),
+        "parameters": o.param_names.iter().zip(&r.params)
             .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
     });
     if c.json {
@@ -203,9 +278,28 @@ fn print(c: &CommonArgs, o: &RobustReport, written: bool) {
         r.rounds,
         r.trials,
         o.planning_ms,
-        if o.time_limited { " (cut by --time-limit-s)" } else { "" }
+        if o.stopped_by_time {
+            " (stopped by --time-limit-s: the plan depends on this machine's speed)"
+        } else {
+            ""
+        }
     );
     if let Some(conf) = r.confirmation_rate {
         println!("on the {} confirmation worlds {:.1} %", o.confirmation_samples, 100.0 * conf);
+    }
+    if let Some(w) = &o.wall_press {
+        match &w.best {
+            Some((b, n)) if *n > w.without => println!(
+                "wall press: after move {} towards {} (gap {:.0} µm), {n} of {} screening \
+                 worlds against {} without; the search started from it",
+                b.after_move, b.direction, b.gap_um, w.samples, w.without
+            ),
+            Some((_, n)) => println!(
+                "wall press: the best of {} variants succeeded on {n} of {} screening worlds, \
+                 the plan without a press on {}: not used",
+                w.variants, w.samples, w.without
+            ),
+            None => println!("wall press: no variant reaches a wall and still inserts: not used"),
+        }
     }
 }

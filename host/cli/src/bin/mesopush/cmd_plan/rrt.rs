@@ -51,8 +51,8 @@ pub(super) fn run(args: &RrtArgs) -> Result<()> {
         bar.set_position(p.iteration as u64);
         bar.set_message(format!("tree {}", p.tree_size));
     };
-    let run =
-        plan_rrt_within(&mut sim, start, &settings, c.seed, c.time_limit_s, &mut on_progress)?;
+    let limit_s = c.time_limit_s.unwrap_or(f64::INFINITY);
+    let run = plan_rrt_within(&mut sim, start, &settings, c.seed, limit_s, &mut on_progress)?;
     bar.finish_and_clear();
     let (result, planning_ms) = (&run.result, run.planning_ms);
     let found = result.plan.is_some();
@@ -70,6 +70,8 @@ pub(super) fn run(args: &RrtArgs) -> Result<()> {
         "pushes_before_shortcut": result.pushes_before_shortcut,
         "shortcut_attempts": result.shortcut_attempts, "moves": moves, "travel_um": travel,
         "iterations": result.iterations, "tree_size": result.tree_size,
+        "stopped_by_time": result.plan.is_none() && result.iterations < settings.max_iterations
+            && planning_ms / 1e3 >= limit_s,
         "simulated_pushes": result.simulated_pushes,
         "rejected_at_verification": result.rejected_at_verification,
         "overloaded_pushes": result.overloaded_pushes,
