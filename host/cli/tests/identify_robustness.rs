@@ -1,6 +1,7 @@
 //! The identification → robustness pipeline through the command line: `identify run
 //! --optimize` writes its consistent set (bootstrap refits included), `robustness --supports`
-//! reads that very file and samples its (μ_probe, support) pairs whole. Caught: identify wrote
+//! reads that very file and samples its (μ_probe, support) pairs whole, and `plan robust
+//! --supports` designs and checks on the same pairs. Caught: identify wrote
 //! `[[supports]]` while robustness read `[[support]]`, and no test joined the two.
 
 use std::path::Path;
@@ -91,4 +92,60 @@ fn identify_writes_the_support_set_robustness_samples_as_pairs() {
         d,
     ));
     assert_eq!(rob["samples"].as_u64(), Some(12), "{rob}");
+
+    // `plan robust --supports` designs and checks on the same pairs: its fresh check of the
+    // plan it wrote equals `robustness --supports` on that plan with the check's seed. (On
+    // the nominal model: in the one identified from these few synthetic trials Table II's
+    // plan wedges the peg beyond the needle's limit, and `plan robust` refuses it.)
+    let designed = ok(mesopush(
+        &[
+            "plan",
+            "robust",
+            "--from-plan",
+            plan.to_str().unwrap(),
+            "--supports",
+            "set.toml",
+            "--seed",
+            SEED,
+            "--generations",
+            "1",
+            "--population",
+            "4",
+            "--elite",
+            "2",
+            "--train-samples",
+            "6",
+            "--validation-samples",
+            "6",
+            "--confirm-samples",
+            "0",
+            "--rounds",
+            "1",
+            "--check-samples",
+            "24",
+            "--check-seed",
+            "41",
+            "--out",
+            "robust.toml",
+            "--json",
+        ],
+        d,
+    ));
+    let again = ok(mesopush(
+        &[
+            "robustness",
+            "robust.toml",
+            "--supports",
+            "set.toml",
+            "--samples",
+            "24",
+            "--seed",
+            "41",
+            "--out",
+            "rob2",
+            "--json",
+        ],
+        d,
+    ));
+    assert_eq!(designed["success_rate"], again["success_rate"], "{designed}\n{again}");
 }

@@ -16,6 +16,7 @@ use mesopush_plan::{
     search_robust,
 };
 use mesopush_sim::start::check_start;
+use mesopush_sim::support_set::SupportSet;
 use mesopush_sim::{Plan, Simulator};
 use rand::SeedableRng;
 use serde_json::json;
@@ -77,6 +78,12 @@ pub(super) struct RobustArgs {
     /// the part's diameter, 189 µm for the paper's peg).
     #[arg(long, value_parser = crate::ranges::real(Allowed::positive_to(1e5, "µm")))]
     move_radius_um: Option<f64>,
+    /// Candidate support distributions the sampled worlds draw from (TOML `[[support]]` or
+    /// JSON list), e.g. what `identify --consistent-out` wrote: each world draws one member,
+    /// with its own probe and surface friction when it has them (a fitted pair); default:
+    /// the model's support perturbed by ±100 µm, as `robustness` does.
+    #[arg(long)]
+    supports: Option<PathBuf>,
     /// Before the search, try pressing the part against a wall after each push of the start
     /// plan (an uncertainty-removing move) and search from the best variant if it beats the
     /// start on the screening worlds (its replays count against --max-replays).
@@ -145,7 +152,14 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
     };
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
     let sim_settings = sim.settings().clone();
-    let world = UncertainWorld::nominal(&model, &fixture, &sim_settings);
+    let supports = match &args.supports {
+        Some(p) => SupportSet::load(p, &model.part)?.support,
+        None => Vec::new(),
+    };
+    let world = UncertainWorld {
+        supports: &supports,
+        ..UncertainWorld::nominal(&model, &fixture, &sim_settings)
+    };
     let bar = bar((search.design.generations * search.design.rounds) as u64, c.json);
     let mut on_progress = |g: usize, best: f64| {
         bar.set_position(g as u64);
