@@ -13,7 +13,7 @@ use crate::pushes::pushing_moves;
 use crate::robust::{RobustResult, design_robust};
 use crate::robust_settings::RobustSettings;
 use crate::skeleton::Skeleton;
-use crate::wall_press::{Screened, WallPressSettings, screen_wall_presses};
+use crate::wall_press::{Screened, WallPressSettings, add_wall_presses};
 use crate::world::UncertainWorld;
 use mesopush_sim::plan::PegStart;
 use mesopush_sim::{Overload, Plan, Simulator, replay};
@@ -124,8 +124,9 @@ pub struct RobustReport {
     pub confirmation_samples: usize,
     /// The replay budget ([`RobustSettings::max_replays`]).
     pub max_replays: usize,
-    /// The wall-press screening, when asked for.
-    pub wall_press: Option<Screened>,
+    /// The wall-press screening rounds, when asked for (the presses added are those of the
+    /// rounds that [`Screened::improves`]).
+    pub wall_press: Option<Vec<Screened>>,
 }
 
 /// The seed of the wall-press screening's worlds for design seed `seed` (apart from the
@@ -172,21 +173,21 @@ pub fn search_robust(
     let mut screened = None;
     if let Some(wp) = &search.wall_press {
         let plan = family.plan(&initial, start, "start");
-        let s = screen_wall_presses(&plan, start, world, wp, screen_seed_for(search.seed))?;
-        if let Some((best, n)) = &s.best
-            && *n > s.without
-        {
+        let (pressed, rounds) =
+            add_wall_presses(&plan, start, world, wp, screen_seed_for(search.seed))?;
+        if rounds.iter().any(Screened::improves) {
             let radius_um = match &search.init {
                 Init::Plan { radius_um, .. } => *radius_um,
                 _ => default_radius_um(world.model.part.polygon()),
             };
-            let f = PathFamily::around(&best.plan, radius_um);
+            let f = PathFamily::around(&pressed, radius_um);
             initial = f.initial().to_vec();
             family = Box::new(f);
         }
         // The screening's replays come out of the design's budget.
-        settings.max_replays = settings.max_replays.saturating_sub(s.samples * (s.variants + 1));
-        screened = Some(s);
+        let used: usize = rounds.iter().map(Screened::replays).sum();
+        settings.max_replays = settings.max_replays.saturating_sub(used);
+        screened = Some(rounds);
     }
     let settings = &settings;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(search.seed);

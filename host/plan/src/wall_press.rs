@@ -35,6 +35,9 @@ pub struct WallPressSettings {
     pub clearance_fraction: f64,
     /// Worlds each variant is screened on. Default 64.
     pub screen_samples: usize,
+    /// Most presses added, one after another: each round screens the variants of the plan
+    /// the last round chose, on new worlds, and stops when none beats it. Default 3.
+    pub max_presses: usize,
 }
 
 impl Default for WallPressSettings {
@@ -44,6 +47,7 @@ impl Default for WallPressSettings {
             overshoot_fraction: 0.5,
             clearance_fraction: 0.05,
             screen_samples: 64,
+            max_presses: 3,
         }
     }
 }
@@ -130,6 +134,38 @@ pub fn wall_press_variants(
     Ok(out)
 }
 
+/// Whether `part` and one of `walls` overlap by more than a micrometre.
+fn overlaps(part: &ConvexPolygon, walls: &[ConvexPolygon]) -> bool {
+    walls.iter().any(|w| {
+        part.vertices().iter().any(|v| w.signed_distance(v) < -1.0)
+            || w.vertices().iter().any(|v| part.signed_distance(v) < -1.0)
+    })
+}
+
+/// The largest extent of `v` from `c` along `d`.
+fn support(v: &[Vec2], c: Vec2, d: Vec2) -> f64 {
+    v.iter().map(|p| (*p - c).dot(&d)).fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// The vertices of `outline` turned about its centroid so that the edge whose outward normal
+/// is nearest `d` faces along `d` exactly.
+fn squared(outline: &ConvexPolygon, d: Vec2) -> Vec<Vec2> {
+    let v = outline.vertices();
+    let c = outline.centroid();
+    let best = (0..v.len())
+        .max_by(|&a, &b| outline.edge_normal(a).dot(&d).total_cmp(&outline.edge_normal(b).dot(&d)))
+        .unwrap_or(0);
+    let n = outline.edge_normal(best);
+    let turn = cross(&n, &d).atan2(n.dot(&d));
+    let (sn, cs) = turn.sin_cos();
+    v.iter()
+        .map(|p| {
+            let q = *p - c;
+            c + Vec2::new(cs * q.x - sn * q.y, sn * q.x + cs * q.y)
+        })
+        .collect()
+}
+
 /// One press being built.
 struct Press<'a> {
     outline: &'a ConvexPolygon,
@@ -152,15 +188,31 @@ impl Press<'_> {
         let clear = settings.clearance_fraction * self.diameter;
         let r = world.model.probe_radius_um;
         let c = self.outline.centroid();
-        let behind =
-            self.outline.vertices().iter().map(|v| (c - *v).dot(&self.d)).fold(0.0, f64::max);
+        let behind = support(self.outline.vertices(), c, -self.d);
         let s = c - self.d * (behind + r + clear);
         let overshoot = settings.overshoot_fraction * world.model.probe_deflection_limit_um;
-        let e = s + self.d * (clear + gap + overshoot);
+        // Where the probe must reach: the part translated until it touches the wall, or —
+        // when it turns flat against the wall first — squared, with the face whose normal is
+        // nearest the press flush against it; whichever is farther.
+        let square = squared(self.outline, self.d);
+        let to_wall =
+            walls.iter().filter_map(|w| ray_distance(c, self.d, w)).min_by(f64::total_cmp);
+        let flush = to_wall.map_or(f64::NEG_INFINITY, |t| {
+            t - support(&square, c, self.d) - support(&square, c, -self.d)
+        });
+        // Squared only where the squared part fits there (no wall corner in the way).
+        let shift = self.d * (to_wall.unwrap_or(0.0) - support(&square, c, self.d));
+        let squared_at_wall = ConvexPolygon::new(square.iter().map(|p| *p + shift).collect())
+            .ok()
+            .filter(|p| flush > gap - behind && !overlaps(p, walls));
+        let (reach, moved) = match squared_at_wall {
+            Some(p) => (flush, p),
+            None => (gap - behind, self.outline.translated(&(self.d * gap))),
+        };
+        let e = c + self.d * (reach - r + overshoot);
         let back = e - self.d * clear;
         let lm = Vec2::new(self.last_move[0], self.last_move[1]);
         let off = self.probe - lm.normalize() * clear;
-        let moved = self.outline.translated(&(self.d * gap));
         let obstacles = |peg| Obstacles { walls, peg, probe_radius_um: r, peg_clearance_um: 0.0 };
         let there = route(off, s, &obstacles(Some(self.outline)))?;
         let home = route(back, off, &obstacles(Some(&moved)))?;
@@ -186,6 +238,44 @@ pub struct Screened {
     pub samples: usize,
     /// Variants screened.
     pub variants: usize,
+}
+
+impl Screened {
+    /// Whether the best variant beat the plan without it on the screening worlds.
+    pub fn improves(&self) -> bool {
+        self.best.as_ref().is_some_and(|b| b.1 > self.without)
+    }
+
+    /// Replays the screening ran.
+    pub fn replays(&self) -> usize {
+        self.samples * (self.variants + 1)
+    }
+}
+
+/// Adds up to [`WallPressSettings::max_presses`] presses to `plan`, one screening round each
+/// (round `i` on the worlds of `seed + i`), while the best variant beats the plan so far.
+/// Returns the plan and every round's screening.
+pub fn add_wall_presses(
+    plan: &Plan,
+    start: PegStart,
+    world: &UncertainWorld<'_>,
+    settings: &WallPressSettings,
+    seed: u64,
+) -> Result<(Plan, Vec<Screened>), crate::Error> {
+    let mut plan = plan.clone();
+    let mut rounds = Vec::new();
+    for i in 0..settings.max_presses {
+        let s = screen_wall_presses(&plan, start, world, settings, seed.wrapping_add(i as u64))?;
+        let improves = s.improves();
+        if let Some((best, _)) = s.best.as_ref().filter(|_| improves) {
+            plan = best.plan.clone();
+        }
+        rounds.push(s);
+        if !improves {
+            break;
+        }
+    }
+    Ok((plan, rounds))
 }
 
 /// Screens every wall-press variant of `plan` on `settings.screen_samples` worlds drawn from

@@ -251,15 +251,15 @@ fn print(c: &CommonArgs, o: &RobustReport, written: bool) {
         "validation_samples": o.validation_samples, "confirmation_samples": o.confirmation_samples,
         "planning_ms": o.planning_ms, "seed": c.seed,
         "plan": if written { Some(&c.out) } else { None },
-        "wall_press": o.wall_press.as_ref().map(|w| json!({
+        "wall_press": o.wall_press.as_ref().map(|rounds| rounds.iter().map(|w| json!({
             "screened_variants": w.variants, "screen_samples": w.samples,
             "successes_without": w.without,
             "best_successes": w.best.as_ref().map(|b| b.1),
-            "used": w.best.as_ref().is_some_and(|b| b.1 > w.without),
+            "used": w.improves(),
             "after_move": w.best.as_ref().map(|b| b.0.after_move),
             "direction": w.best.as_ref().map(|b| b.0.direction),
             "gap_um": w.best.as_ref().map(|b| b.0.gap_um),
-        })),
+        })).collect::<Vec<_>>()),
         "parameters": o.param_names.iter().zip(&r.params)
             .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
     });
@@ -301,19 +301,30 @@ fn print(c: &CommonArgs, o: &RobustReport, written: bool) {
     if let Some(conf) = r.confirmation_rate {
         println!("on the {} confirmation worlds {:.1} %", o.confirmation_samples, 100.0 * conf);
     }
-    if let Some(w) = &o.wall_press {
+    for (i, w) in o.wall_press.iter().flatten().enumerate() {
         match &w.best {
-            Some((b, n)) if *n > w.without => println!(
-                "wall press: after move {} towards {} (gap {:.0} µm), {n} of {} screening \
-                 worlds against {} without; the search started from it",
-                b.after_move, b.direction, b.gap_um, w.samples, w.without
+            Some((b, n)) if w.improves() => println!(
+                "wall press {}: after move {} towards {} (gap {:.0} µm), {n} of {} screening \
+                 worlds against {} without: added",
+                i + 1,
+                b.after_move,
+                b.direction,
+                b.gap_um,
+                w.samples,
+                w.without
             ),
             Some((_, n)) => println!(
-                "wall press: the best of {} variants succeeded on {n} of {} screening worlds, \
-                 the plan without a press on {}: not used",
-                w.variants, w.samples, w.without
+                "wall press {}: the best of {} variants succeeded on {n} of {} screening \
+                 worlds, the plan so far on {}: none added",
+                i + 1,
+                w.variants,
+                w.samples,
+                w.without
             ),
-            None => println!("wall press: no variant reaches a wall and still inserts: not used"),
+            None => println!(
+                "wall press {}: no variant reaches a wall and still inserts: none added",
+                i + 1
+            ),
         }
     }
 }
