@@ -30,6 +30,7 @@ pub fn draw_replay(sim: &Simulator, plan: &Plan, r: &Replay, path: &Path) -> Res
         title: &title,
         walls: &sim.fixture().walls,
         goal: Some(&sim.fixture().goal),
+        goal_whole_part: sim.fixture().goal_whole_part,
         part: sim.model().part.polygon(),
         poses: &poses,
         probe_um: &probe,

@@ -59,7 +59,7 @@ pub struct RobustSettings {
     /// together): a generation or round starts only if it and everything the search must
     /// still run after it fit. The budget counts simulations, not seconds, so the same seed
     /// and settings give the same plan on any machine and thread count. Default 30 000
-    /// (about 40 s on two cores for Table II's task, docs/planning.md).
+    /// (27–30 s wall on two cores for Table II's task, docs/planning.md).
     pub max_replays: usize,
 }
 

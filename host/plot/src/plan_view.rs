@@ -18,6 +18,9 @@ pub struct PlanFigure<'a> {
     pub walls: &'a [ConvexPolygon],
     /// Goal region outline.
     pub goal: Option<&'a ConvexPolygon>,
+    /// Whether the goal asks for the whole part inside it (else: its centre by the insert
+    /// depth); only the legend's words.
+    pub goal_whole_part: bool,
     /// The part in its body frame.
     pub part: &'a ConvexPolygon,
     /// Peg poses along the trajectory.
@@ -56,7 +59,11 @@ where
         pts.push(pts[0]);
         chart
             .draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(2))))?
-            .label("goal region (inserted: peg centre inside by the insert depth)")
+            .label(if fig.goal_whole_part {
+                "goal region (inserted: the whole part inside it)"
+            } else {
+                "goal region (inserted: peg centre inside by the insert depth)"
+            })
             .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], GREEN.stroke_width(2)));
     }
     let n = fig.poses.len();
