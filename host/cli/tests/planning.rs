@@ -217,3 +217,22 @@ fn the_replay_budget_ends_a_robust_search_and_a_wall_clock_limit_says_it_stopped
         "{timed}"
     );
 }
+
+#[test]
+fn plan_robust_from_the_rrt_starts_from_the_most_successful_of_its_rrt_plans() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.toml");
+    let o = small_robust(&out, 2, &["--from-rrt", "--rrt-starts", "3"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let r = &v["rrt_start"];
+    let runs = r["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), 3, "{r}");
+    assert_eq!(runs[0]["seed"], 5, "the first start is --seed itself: {r}");
+    let best = runs.iter().filter_map(|x| x["successes"].as_u64()).max().unwrap();
+    assert_eq!(r["successes"].as_u64(), Some(best), "{r}");
+    let first_best = runs.iter().find(|x| x["successes"].as_u64() == Some(best)).unwrap();
+    assert_eq!(r["seed"], first_best["seed"], "ties go to the earlier seed: {r}");
+    assert_eq!(r["screen_samples"], 64, "{r}");
+    Plan::load(&out).unwrap().validate().unwrap();
+}

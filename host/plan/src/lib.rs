@@ -32,6 +32,7 @@ pub mod pushes;
 pub mod route;
 pub mod rrt;
 pub mod rrt_settings;
+pub mod rrt_starts;
 pub mod shortcut;
 pub mod steer;
 pub mod tree;

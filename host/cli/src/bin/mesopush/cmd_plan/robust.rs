@@ -10,15 +10,14 @@ use clap::Args;
 use mesopush_core::check::Allowed;
 use mesopush_plan::family::default_radius_um;
 use mesopush_plan::figures::draw_replayed_plan;
+use mesopush_plan::rrt_starts::{RrtStart, SCREEN_SAMPLES, best_rrt_plan, screen_seed_for};
 use mesopush_plan::wall_press::WallPressSettings;
 use mesopush_plan::{
-    Init, RobustReport, RobustSearch, RobustSettings, RrtSettings, UncertainWorld, plan_rrt,
-    search_robust,
+    Init, RobustReport, RobustSearch, RobustSettings, RrtSettings, UncertainWorld, search_robust,
 };
 use mesopush_sim::start::check_start;
 use mesopush_sim::support_set::SupportSet;
 use mesopush_sim::{Plan, Simulator};
-use rand::SeedableRng;
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -74,6 +73,10 @@ pub(super) struct RobustArgs {
     /// search its moves as --from-plan does: for parts and fixtures other than Table II's.
     #[arg(long)]
     from_rrt: bool,
+    /// With --from-rrt: run the RRT from this many seeds (the first is --seed) and start from
+    /// the plan that succeeds most often on 64 screening worlds.
+    #[arg(long, default_value_t = 8, value_parser = crate::ranges::count(1, 1000))]
+    rrt_starts: usize,
     /// How far each move's end may shift with --from-plan / --from-rrt, µm (default: 0.1 ×
     /// the part's diameter, 189 µm for the paper's peg).
     #[arg(long, value_parser = crate::ranges::real(Allowed::positive_to(1e5, "µm")))]
@@ -140,16 +143,6 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
         (start.x_um, start.y_um, start.theta_deg) = (p.x_um, p.y_um, p.theta_rad.to_degrees());
     }
     check_start(&mut sim, "the peg start (--start or the plan's)", start.pose(), None)?;
-    let init = init(args, &mut sim, from_plan, start)?;
-    let search = RobustSearch {
-        design: robust_settings(args),
-        init,
-        wall_press: args.wall_press.then(WallPressSettings::default),
-        seed: c.seed,
-        time_limit_s: c.time_limit_s,
-        check_samples: args.check_samples,
-        check_seed: args.check_seed,
-    };
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
     let sim_settings = sim.settings().clone();
     let supports = match &args.supports {
@@ -160,6 +153,16 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
         supports: &supports,
         ..UncertainWorld::nominal(&model, &fixture, &sim_settings)
     };
+    let (init, rrt_start) = init(args, &mut sim, &world, from_plan, start)?;
+    let search = RobustSearch {
+        design: robust_settings(args),
+        init,
+        wall_press: args.wall_press.then(WallPressSettings::default),
+        seed: c.seed,
+        time_limit_s: c.time_limit_s,
+        check_samples: args.check_samples,
+        check_seed: args.check_seed,
+    };
     let bar = bar((search.design.generations * search.design.rounds) as u64, c.json);
     let mut on_progress = |g: usize, best: f64| {
         bar.set_position(g as u64);
@@ -168,7 +171,7 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
     let report = search_robust(&world, start, &search, &mut on_progress)?;
     bar.finish_and_clear();
     if let Some(o) = &report.nominal_overload {
-        print(c, &report, false);
+        print(c, &report, rrt_start.as_ref(), false);
         let why = format!("the designed plan is refused and was not written: {o}");
         return Err(crate::verdict::Negative(why).into());
     }
@@ -178,39 +181,44 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
     if let Some(fig) = &c.figure {
         draw_replayed_plan(&mut sim, plan, fig)?;
     }
-    print(c, &report, true);
+    print(c, &report, rrt_start.as_ref(), true);
     Ok(())
 }
 
-/// Where the search starts: the flags' choice (the RRT run here when asked).
+/// Where the search starts: the flags' choice (the RRT run here when asked: with
+/// `--rrt-starts N`, from N seeds, the most successful plan on 64 screening worlds).
 fn init(
     args: &RobustArgs,
     sim: &mut Simulator,
+    world: &UncertainWorld<'_>,
     from_plan: Option<Plan>,
     start: mesopush_sim::plan::PegStart,
-) -> Result<Init> {
+) -> Result<(Init, Option<RrtStart>)> {
     let radius_um = args.move_radius_um.unwrap_or(default_radius_um(sim.model().part.polygon()));
     if let Some(plan) = from_plan {
-        return Ok(Init::Plan { plan, radius_um });
+        return Ok((Init::Plan { plan, radius_um }, None));
     }
     if args.from_rrt {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(args.common.seed);
-        let rrt = plan_rrt(sim, start.pose(), &RrtSettings::default(), &mut rng, &mut |_| true)?;
-        let Some(plan) = rrt.plan else {
+        let seed = args.common.seed;
+        let starts = (seed, args.rrt_starts);
+        let screen = (SCREEN_SAMPLES, screen_seed_for(seed));
+        let rrt = RrtSettings::default();
+        let Some(found) = best_rrt_plan(sim, start.pose(), &rrt, world, starts, screen)? else {
             let why = format!(
-                "the RRT found no plan to start from in {} iterations (seed {}); try another \
-                 --seed or --from-plan",
-                rrt.iterations, args.common.seed
+                "the RRT found no plan to start from in {} run(s) of {} iterations (seed {seed}); \
+                 try another --seed, more --rrt-starts, or --from-plan",
+                args.rrt_starts, rrt.max_iterations
             );
             return Err(crate::verdict::Negative(why).into());
         };
-        return Ok(Init::Plan { plan, radius_um });
+        return Ok((Init::Plan { plan: found.plan.clone(), radius_um }, Some(found)));
     }
-    Ok(if args.from_shipped {
+    let init = if args.from_shipped {
         Init::Shipped
     } else {
         Init::Table2 { press_on_rotated: !args.from_table2 }
-    })
+    };
+    Ok((init, None))
 }
 
 /// The optimiser's settings from the flags.
@@ -235,7 +243,7 @@ fn robust_settings(args: &RobustArgs) -> RobustSettings {
 }
 
 /// Prints the report; `written`: the plan was written to `--out` (not refused).
-fn print(c: &CommonArgs, o: &RobustReport, written: bool) {
+fn print(c: &CommonArgs, o: &RobustReport, rrt: Option<&RrtStart>, written: bool) {
     let (r, est) = (&o.design, &o.check);
     let summary = json!({
         "found": written, "robust": true, "nominal_feasible": o.nominal_feasible,
@@ -260,6 +268,10 @@ fn print(c: &CommonArgs, o: &RobustReport, written: bool) {
             "direction": w.best.as_ref().map(|b| b.0.direction),
             "gap_um": w.best.as_ref().map(|b| b.0.gap_um),
         })).collect::<Vec<_>>()),
+        "rrt_start": rrt.map(|r| json!({
+            "seed": r.seed, "successes": r.successes, "screen_samples": r.samples,
+            "runs": r.runs.iter().map(|(s, n)| json!({"seed": s, "successes": n})).collect::<Vec<_>>(),
+        })),
         "parameters": o.param_names.iter().zip(&r.params)
             .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
     });
@@ -300,6 +312,17 @@ fn print(c: &CommonArgs, o: &RobustReport, written: bool) {
     );
     if let Some(conf) = r.confirmation_rate {
         println!("on the {} confirmation worlds {:.1} %", o.confirmation_samples, 100.0 * conf);
+    }
+    if let Some(r) = rrt {
+        let found = r.runs.iter().filter(|x| x.1.is_some()).count();
+        println!(
+            "started from the RRT plan of seed {} ({} of {} screening worlds; {found} of {} RRT \
+             runs found a plan)",
+            r.seed,
+            r.successes,
+            r.samples,
+            r.runs.len()
+        );
     }
     for (i, w) in o.wall_press.iter().flatten().enumerate() {
         match &w.best {
