@@ -113,46 +113,8 @@ pub fn design_robust(
     let world = &UncertainWorld { settings: &coarse, ..*fine };
     let ctx = Ctx { world, start, family, initial };
     let n_val = settings.validation_samples;
-    // Drawn after the first round's search (the draw order of the single-round design).
-    let mut val_worlds: Option<Vec<Draw>> = None;
-    let rounds = if n_val == 0 { 1 } else { settings.rounds.max(1) };
     let mut counts = Counts::default();
-    // (parameters, training successes, validation successes)
-    let mut pool: Vec<Finalist> = Vec::new();
-    // What must fit after any generation: this round's final mean and validation, the
-    // confirmation at the end.
-    let reserve = settings.samples.max(2)
-        + settings.finalists.max(1) * n_val
-        + settings.confirm_top.max(1) * settings.confirm_samples;
-    for r in 0..rounds {
-        // A later round starts only if it can run at least one generation.
-        let round_start = settings.samples.max(2) + generation_replays(settings) + reserve;
-        if r > 0 && counts.replays + round_start > settings.max_replays {
-            counts.out_of_budget = true;
-            break;
-        }
-        counts.rounds += 1;
-        let finalists = cem_round(&ctx, settings, rng, progress, reserve, &mut counts);
-        if n_val == 0 || finalists.len() == 1 && rounds == 1 {
-            pool.extend(finalists.into_iter().take(1).map(|f| (f.0, f.1, Vec::new())));
-            break;
-        }
-        let val_worlds = val_worlds.get_or_insert_with(|| {
-            draws(fine.model, &fine.uncertainty, fine.supports, n_val, rng.random())
-        });
-        // A finalist validated in an earlier round (the start is one in every round) keeps
-        // its outcomes: the worlds are the same.
-        let fresh: Vec<_> =
-            finalists.into_iter().filter(|f| pool.iter().all(|p| p.0 != f.0)).collect();
-        let cands: Vec<Vec<f64>> = fresh.iter().map(|f| f.0.clone()).collect();
-        let v = outcomes(family, &cands, val_worlds, fine, start);
-        counts.replays += cands.len() * n_val;
-        pool.extend(fresh.into_iter().zip(v).map(|(f, v)| (f.0, f.1, v)));
-        let best = pool.iter().map(|p| count(&p.2)).max().unwrap_or(0);
-        if counts.stopped || best as f64 >= settings.accept_rate * n_val as f64 {
-            break;
-        }
-    }
+    let mut pool = run_rounds(&ctx, fine, settings, rng, progress, &mut counts);
     let validated = n_val > 0 && pool.len() > 1;
     let initial = family.clamped(initial);
     let (i, confirmed) = choose(&pool, &ctx_fine(&ctx, fine), &initial, settings, rng, &mut counts);
@@ -173,6 +135,57 @@ pub fn design_robust(
         out_of_budget: counts.out_of_budget,
         stopped_early: counts.stopped,
     })
+}
+
+/// The rounds: each a CEM round whose finalists are validated on the fine world (drawn after
+/// the first round's search); returns every validated finalist.
+fn run_rounds(
+    ctx: &Ctx<'_, '_>,
+    fine: &UncertainWorld<'_>,
+    settings: &RobustSettings,
+    rng: &mut impl rand::Rng,
+    progress: &mut dyn FnMut(usize, f64) -> bool,
+    counts: &mut Counts,
+) -> Vec<Finalist> {
+    let n_val = settings.validation_samples;
+    let mut val_worlds: Option<Vec<Draw>> = None;
+    let rounds = if n_val == 0 { 1 } else { settings.rounds.max(1) };
+    let mut pool: Vec<Finalist> = Vec::new();
+    // What must fit after any generation: this round's final mean and validation, the
+    // confirmation at the end.
+    let reserve = settings.samples.max(2)
+        + settings.finalists.max(1) * n_val
+        + settings.confirm_top.max(1) * settings.confirm_samples;
+    for r in 0..rounds {
+        // A later round starts only if it can run at least one generation.
+        let round_start = settings.samples.max(2) + generation_replays(settings) + reserve;
+        if r > 0 && counts.replays + round_start > settings.max_replays {
+            counts.out_of_budget = true;
+            break;
+        }
+        counts.rounds += 1;
+        let finalists = cem_round(ctx, settings, rng, progress, reserve, counts);
+        if n_val == 0 || finalists.len() == 1 && rounds == 1 {
+            pool.extend(finalists.into_iter().take(1).map(|f| (f.0, f.1, Vec::new())));
+            break;
+        }
+        let val_worlds = val_worlds.get_or_insert_with(|| {
+            draws(fine.model, &fine.uncertainty, fine.supports, n_val, rng.random())
+        });
+        // A finalist validated in an earlier round (the start is one in every round) keeps
+        // its outcomes: the worlds are the same.
+        let fresh: Vec<_> =
+            finalists.into_iter().filter(|f| pool.iter().all(|p| p.0 != f.0)).collect();
+        let cands: Vec<Vec<f64>> = fresh.iter().map(|f| f.0.clone()).collect();
+        let v = outcomes(ctx.family, &cands, val_worlds, fine, ctx.start);
+        counts.replays += cands.len() * n_val;
+        pool.extend(fresh.into_iter().zip(v).map(|(f, v)| (f.0, f.1, v)));
+        let best = pool.iter().map(|p| count(&p.2)).max().unwrap_or(0);
+        if counts.stopped || best as f64 >= settings.accept_rate * n_val as f64 {
+            break;
+        }
+    }
+    pool
 }
 
 /// `ctx` on the fine (validation) world.

@@ -242,10 +242,15 @@ fn robust_settings(args: &RobustArgs) -> RobustSettings {
     }
 }
 
-/// Prints the report; `written`: the plan was written to `--out` (not refused).
-fn print(c: &CommonArgs, o: &RobustReport, rrt: Option<&RrtStart>, written: bool) {
+/// The `--json` summary; `written`: the plan was written to `--out` (not refused).
+fn summary(
+    c: &CommonArgs,
+    o: &RobustReport,
+    rrt: Option<&RrtStart>,
+    written: bool,
+) -> serde_json::Value {
     let (r, est) = (&o.design, &o.check);
-    let summary = json!({
+    json!({
         "found": written, "robust": true, "nominal_feasible": o.nominal_feasible,
         "nominal_overload": o.nominal_overload,
         "success_rate": est.success_rate, "ci_low": est.ci_low, "ci_high": est.ci_high,
@@ -274,7 +279,13 @@ fn print(c: &CommonArgs, o: &RobustReport, rrt: Option<&RrtStart>, written: bool
         })),
         "parameters": o.param_names.iter().zip(&r.params)
             .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
-    });
+    })
+}
+
+/// Prints the report (the summary with `--json`).
+fn print(c: &CommonArgs, o: &RobustReport, rrt: Option<&RrtStart>, written: bool) {
+    let (r, est) = (&o.design, &o.check);
+    let summary = summary(c, o, rrt, written);
     if c.json {
         println!("{summary}");
         return;
