@@ -8,7 +8,7 @@
 //!   coordinate its end reaches along its axis. Moving one parameter slides one straight
 //!   stretch of the probe path sideways and leaves the rest of the path where it was.
 //!
-//! The cross-entropy method ([`crate::cem`]) and the scoring ([`crate::score`]) see only this
+//! The cross-entropy method (`cem`) and the scoring ([`crate::score`]) see only this
 //! trait, so they design plans of any shape for any part and fixture.
 
 use crate::skeleton::{BOUNDS, N_PARAMS, NAMES, Skeleton};
