@@ -208,6 +208,12 @@ fn the_replay_budget_ends_a_robust_search_and_a_wall_clock_limit_says_it_stopped
     );
     assert!(cut["replays"].as_u64().unwrap() <= budget.parse::<u64>().unwrap(), "{cut}");
     assert_eq!(cut["stopped_by_time"], false, "{cut}");
+    // A budget that cannot hold one generation with its validation and confirmation is
+    // refused before any work, naming the field and the smallest allowed.
+    let tiny = small_robust(&out, 2, &["--from-shipped", "--max-replays", "10"]);
+    let err = String::from_utf8_lossy(&tiny.stderr);
+    assert_eq!(tiny.status.code(), Some(2), "{err}");
+    assert!(err.contains("max_replays") && err.contains("at least"), "{err}");
     // A wall-clock limit shorter than one generation stops the search after its first and
     // says so.
     let timed = json(small_robust(&out, 2, &["--from-shipped", "--time-limit-s", "0.000001"]));

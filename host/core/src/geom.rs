@@ -206,6 +206,12 @@ impl ConvexPolygon {
         ConvexPolygon { vertices: self.vertices.iter().map(|v| v + offset).collect() }
     }
 
+    /// The largest distance between two vertices (the polygon's diameter).
+    pub fn diameter(&self) -> f64 {
+        let v = &self.vertices;
+        v.iter().flat_map(|a| v.iter().map(move |b| (a - b).norm())).fold(0.0, f64::max)
+    }
+
     /// Axis-aligned bounding box as (min, max).
     pub fn bounds(&self) -> (Vec2, Vec2) {
         let mut lo = Vec2::repeat(f64::INFINITY);

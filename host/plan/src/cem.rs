@@ -44,6 +44,22 @@ fn race(
     (scored, replays)
 }
 
+/// `n` candidates drawn around `mean` with spreads `sigma`, clamped into the family's box.
+fn sample(
+    mean: &[f64],
+    sigma: &[f64],
+    n: usize,
+    family: &dyn PlanFamily,
+    rng: &mut impl rand::Rng,
+) -> Vec<Vec<f64>> {
+    (0..n)
+        .map(|_| {
+            let p: Vec<f64> = mean.iter().zip(sigma).map(|(m, s)| m + s * gaussian(rng)).collect();
+            family.clamped(&p)
+        })
+        .collect()
+}
+
 /// Moves the sampling distribution to the elite's mean and (smoothed) spread.
 fn update(mean: &mut [f64], sigma: &mut [f64], elite: &[Scored]) {
     let n = elite.len() as f64;
@@ -62,7 +78,12 @@ pub(crate) struct Counts {
     pub(crate) replays: usize,
     pub(crate) generations: usize,
     pub(crate) rounds: usize,
+    /// Whether the caller's `progress` or the target rate ended the search.
     pub(crate) stopped: bool,
+    /// Whether `progress` asked to stop (a wall-clock limit).
+    pub(crate) stop_asked: bool,
+    /// Whether that stop cut work that would otherwise have run.
+    pub(crate) stopped_by_time: bool,
     /// Whether the replay budget ended the search before its last generation.
     pub(crate) out_of_budget: bool,
 }
@@ -74,6 +95,20 @@ pub(crate) struct Ctx<'a, 'w> {
     pub(crate) family: &'a dyn PlanFamily,
     /// Where every round starts (the first generation's sampling mean; always a finalist).
     pub(crate) initial: &'a [f64],
+}
+
+/// The smallest budget that holds the first round's start, one generation and everything
+/// after it: below it a search could not keep its budget.
+pub(crate) fn min_replays(settings: &RobustSettings) -> usize {
+    settings.samples.max(2) + generation_replays(settings) + reserve(settings)
+}
+
+/// Replays the search must keep for after any generation: the round's final mean and its
+/// validation, and the confirmation at the end.
+pub(crate) fn reserve(settings: &RobustSettings) -> usize {
+    settings.samples.max(2)
+        + settings.finalists.max(1) * settings.validation_samples
+        + settings.confirm_top.max(1) * settings.confirm_samples
 }
 
 /// Replays one generation may use at most: every candidate (and the incumbent) on the first
@@ -121,13 +156,7 @@ pub(crate) fn cem_round(
             break;
         }
         counts.generations += 1;
-        let mut cands: Vec<Vec<f64>> = (0..settings.population)
-            .map(|_| {
-                let mut p = mean.clone();
-                p.iter_mut().zip(&sigma).for_each(|(v, s)| *v += s * gaussian(rng));
-                family.clamped(&p)
-            })
-            .collect();
+        let mut cands = sample(&mean, &sigma, settings.population, family, rng);
         let fresh = settings.resample && g > 0;
         if fresh {
             // New worlds each generation: the incumbent races again on them (last, so ties
@@ -148,8 +177,11 @@ pub(crate) fn cem_round(
         hall.sort_by_key(|a| std::cmp::Reverse(a.1));
         let best_rate = incumbent.1 as f64 / n_train as f64;
         let reached = settings.target_rate < 1.0 && best_rate >= settings.target_rate;
-        if !progress(counts.generations, best_rate) || reached {
+        let go_on = progress(counts.generations, best_rate);
+        if !go_on || reached {
             counts.stopped = true;
+            counts.stop_asked |= !go_on;
+            counts.stopped_by_time |= !go_on && g + 1 < settings.generations;
             break;
         }
     }

@@ -8,10 +8,12 @@
 //! - **Monte Carlo robustness**: a plan's success probability under the paper's uncertainty
 //!   ([`sampler`], [`montecarlo`]), split into shards and merged ([`shard`]), reported with
 //!   figures and per-trial CSVs ([`robustness`], [`figures`]).
-//! - **Robust design** (beyond the paper): the cross-entropy method over a plan
-//!   [`skeleton`] of Table II's shape, scored on sampled worlds ([`world`], [`score`]), in
-//!   rounds with validation and confirmation ([`robust`]), run under a wall-clock budget with
-//!   a fresh check ([`robust_search`]).
+//! - **Robust design** (beyond the paper): the cross-entropy method over a [`family`] of
+//!   plans — a [`skeleton`] of Table II's shape, or the moves of any plan (an RRT's,
+//!   [`rrt_starts`], or a file's), with uncertainty-removing presses against the walls
+//!   ([`wall_press`]) — scored on sampled worlds ([`world`], [`score`]), in rounds with
+//!   validation and confirmation ([`robust`]), run under a budget of replays with a fresh
+//!   check ([`robust_search`]).
 //!
 //! Every plan this crate writes is an ordinary [`mesopush_sim::Plan`]: a connected probe path
 //! of axis-aligned moves (pushes and the repositioning between them) that `mesopush sim` and

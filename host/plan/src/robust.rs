@@ -23,7 +23,7 @@
 //! stays within it.
 
 use crate::Error;
-use crate::cem::{Counts, Ctx, cem_round, generation_replays};
+use crate::cem::{Counts, Ctx, cem_round, generation_replays, min_replays, reserve};
 use crate::family::PlanFamily;
 use crate::montecarlo::draws;
 use crate::robust_settings::RobustSettings;
@@ -53,7 +53,8 @@ pub struct RobustResult {
     pub confirmation_rate: Option<f64>,
     /// Candidates sampled (each scored at least on the first half of the training worlds).
     pub evaluations: usize,
-    /// Plan replays simulated in all (training and validation).
+    /// Monte Carlo replays simulated in all (training, validation and confirmation; the
+    /// finalists' nominal replays of the needle check are not counted).
     pub trials: usize,
     /// Generations run (all rounds).
     pub generations: usize,
@@ -62,14 +63,15 @@ pub struct RobustResult {
     /// Whether the replay budget ([`RobustSettings::max_replays`]) ended the search before
     /// its last generation.
     pub out_of_budget: bool,
-    /// Whether the caller's `progress` stopped the search (a wall-clock limit).
-    pub stopped_early: bool,
+    /// Whether the caller's `progress` (a wall-clock limit) stopped the search while more
+    /// generations or rounds would have run.
+    pub stopped_by_time: bool,
 }
 
 /// How many standard deviations a finalist must beat the start by, paired on the same
 /// validation worlds (McNemar: wins minus losses against √(wins + losses)), to replace it.
 /// Without it the most validated of a few similar finalists wins partly by luck: at the
-/// 60-s budget, searches returned 95.1–95.3 % designs that had out-validated the 96 % start.
+/// former 60-s wall-clock budget, searches returned 95.1–95.3 % designs that had out-validated the 96 % start.
 pub const REPLACE_START_Z: f64 = 2.0;
 
 /// Whether outcomes `a` beat `b` on the same worlds by [`REPLACE_START_Z`].
@@ -99,6 +101,17 @@ pub fn design_robust(
     progress: &mut dyn FnMut(usize, f64) -> bool,
 ) -> Result<RobustResult, Error> {
     world.model.validate()?;
+    let min = min_replays(settings);
+    if settings.max_replays < min {
+        return Err(Error::invalid(
+            "max_replays",
+            format!(
+                "{} replays cannot hold one generation of these settings with its validation \
+                 and confirmation: allowed at least {min}",
+                settings.max_replays
+            ),
+        ));
+    }
     if initial.len() != family.bounds().len() {
         return Err(Error::invalid(
             "initial",
@@ -133,7 +146,7 @@ pub fn design_robust(
         generations: counts.generations,
         rounds: counts.rounds,
         out_of_budget: counts.out_of_budget,
-        stopped_early: counts.stopped,
+        stopped_by_time: counts.stopped_by_time,
     })
 }
 
@@ -151,11 +164,7 @@ fn run_rounds(
     let mut val_worlds: Option<Vec<Draw>> = None;
     let rounds = if n_val == 0 { 1 } else { settings.rounds.max(1) };
     let mut pool: Vec<Finalist> = Vec::new();
-    // What must fit after any generation: this round's final mean and validation, the
-    // confirmation at the end.
-    let reserve = settings.samples.max(2)
-        + settings.finalists.max(1) * n_val
-        + settings.confirm_top.max(1) * settings.confirm_samples;
+    let reserve = reserve(settings);
     for r in 0..rounds {
         // A later round starts only if it can run at least one generation.
         let round_start = settings.samples.max(2) + generation_replays(settings) + reserve;
@@ -181,7 +190,10 @@ fn run_rounds(
         counts.replays += cands.len() * n_val;
         pool.extend(fresh.into_iter().zip(v).map(|(f, v)| (f.0, f.1, v)));
         let best = pool.iter().map(|p| count(&p.2)).max().unwrap_or(0);
-        if counts.stopped || best as f64 >= settings.accept_rate * n_val as f64 {
+        let accepted = best as f64 >= settings.accept_rate * n_val as f64;
+        // A time stop at a round's end cut the search only if another round would have run.
+        counts.stopped_by_time |= counts.stop_asked && !accepted && r + 1 < rounds;
+        if counts.stopped || accepted {
             break;
         }
     }
@@ -214,7 +226,7 @@ fn choose(
 ) -> (usize, Option<f64>) {
     // Finalists whose nominal replay bends the needle beyond its limit are out while any
     // finalist stays within it (if none does, `plan robust` refuses the winner).
-    // (Not counted in `trials`, which counts training and validation replays.)
+    // (Not counted in `trials`, which counts the Monte Carlo replays.)
     let safe: Vec<bool> = pool.iter().map(|p| nominally_within_limit(fine, &p.0)).collect();
     let any_safe = safe.contains(&true);
     let ok = |i: usize| !any_safe || safe[i];

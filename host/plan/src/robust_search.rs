@@ -32,13 +32,11 @@ pub enum Init {
     },
     /// Table II's skeleton from the shipped design ([`Skeleton::best_known`]).
     Shipped,
-    /// Any plan (an RRT's, a file's): every move's end free within `radius_um` along its
-    /// axis ([`PathFamily`]).
+    /// Any plan (an RRT's, a file's): every move's end free within
+    /// [`RobustSearch::move_radius_um`] along its axis ([`PathFamily`]).
     Plan {
         /// The plan the search starts from.
         plan: Plan,
-        /// How far each move's end may move, µm.
-        radius_um: f64,
     },
 }
 
@@ -55,6 +53,10 @@ pub struct RobustSearch {
     pub design: RobustSettings,
     /// Where the search starts. Default: Table II's numbers, press on the rotated peg.
     pub init: Init,
+    /// How far each move's end may move when the search runs over a plan's moves (from
+    /// [`Init::Plan`], or after wall presses), µm. Default none: [`default_radius_um`] of
+    /// the part.
+    pub move_radius_um: Option<f64>,
     /// Before the search, try a press against a wall after each push of the start plan
     /// ([`crate::wall_press`]) and search from the best variant, if one beats the start on
     /// the screening worlds. Default none.
@@ -77,6 +79,7 @@ impl Default for RobustSearch {
         Self {
             design: RobustSettings::default(),
             init: Init::default(),
+            move_radius_um: None,
             wall_press: None,
             seed: 1,
             time_limit_s: None,
@@ -122,8 +125,12 @@ pub struct RobustReport {
     pub validation_samples: usize,
     /// Confirmation worlds ([`RobustSettings::confirm_samples`]).
     pub confirmation_samples: usize,
-    /// The replay budget ([`RobustSettings::max_replays`]).
+    /// The replay budget ([`RobustSettings::max_replays`]), the wall-press screening's
+    /// replays included.
     pub max_replays: usize,
+    /// Monte Carlo replays of the wall-press screening (taken from the budget before the
+    /// design; not in the design's `trials`).
+    pub screen_replays: usize,
     /// The wall-press screening rounds, when asked for (the presses added are those of the
     /// rounds that [`Screened::improves`]).
     pub wall_press: Option<Vec<Screened>>,
@@ -131,16 +138,18 @@ pub struct RobustReport {
 
 /// The seed of the wall-press screening's worlds for design seed `seed` (apart from the
 /// design's own stream, so asking for the screening leaves the design's draws unchanged).
-pub fn screen_seed_for(seed: u64) -> u64 {
+pub fn wall_press_seed_for(seed: u64) -> u64 {
     seed.wrapping_add(0x0057_A11F_0CE5)
 }
 
-/// The family `init` searches, and its start parameters for a peg starting at `start`.
+/// The family `init` searches, and its start parameters for a peg starting at `start`;
+/// `radius_um`: how far a plan family's move ends may move.
 pub fn family_for(
     init: &Init,
     world: &UncertainWorld<'_>,
     start: PegStart,
-) -> Result<(Box<dyn PlanFamily>, Vec<f64>), Error> {
+    radius_um: f64,
+) -> Result<StartPoint, Error> {
     Ok(match init {
         Init::Table2 { press_on_rotated: false } => {
             (Box::new(Table2Family), Skeleton::table2_like().params.to_vec())
@@ -150,13 +159,35 @@ pub fn family_for(
             (Box::new(Table2Family), s.params.to_vec())
         }
         Init::Shipped => (Box::new(Table2Family), Skeleton::best_known().params.to_vec()),
-        Init::Plan { plan, radius_um } => {
+        Init::Plan { plan } => {
             plan.validate()?;
-            let f = PathFamily::around(plan, *radius_um);
+            let f = PathFamily::around(plan, radius_um);
             let initial = f.initial().to_vec();
             (Box::new(f), initial)
         }
     })
+}
+
+/// A family and its start parameters.
+pub type StartPoint = (Box<dyn PlanFamily>, Vec<f64>);
+
+/// The family's start with wall presses added (when any wins its screening: then the
+/// search runs over the pressed plan's moves), the screening rounds and their replays.
+fn with_wall_presses(
+    (family, initial): StartPoint,
+    wp: &WallPressSettings,
+    world: &UncertainWorld<'_>,
+    start: PegStart,
+    (seed, radius_um): (u64, f64),
+) -> Result<(StartPoint, Vec<Screened>), Error> {
+    let plan = family.plan(&initial, start, "start");
+    let (pressed, rounds) = add_wall_presses(&plan, start, world, wp, wall_press_seed_for(seed))?;
+    if !rounds.iter().any(Screened::improves) {
+        return Ok(((family, initial), rounds));
+    }
+    let f = PathFamily::around(&pressed, radius_um);
+    let initial = f.initial().to_vec();
+    Ok(((Box::new(f), initial), rounds))
 }
 
 /// Designs a robust plan for a peg starting at `start` in `world` under `search`'s budget,
@@ -168,27 +199,24 @@ pub fn search_robust(
     progress: &mut dyn FnMut(usize, f64),
 ) -> Result<RobustReport, Error> {
     let mut settings = search.design;
-    let (mut family, mut initial) = family_for(&search.init, world, start)?;
+    let radius_um = search.move_radius_um.unwrap_or(default_radius_um(world.model.part.polygon()));
+    if !(radius_um.is_finite() && radius_um > 0.0) {
+        let why = format!("{radius_um} µm: allowed a finite length above 0");
+        return Err(Error::invalid("move_radius_um", why));
+    }
+    let mut start_point = family_for(&search.init, world, start, radius_um)?;
     let t0 = Instant::now();
-    let mut screened = None;
+    let (mut screened, mut screen_replays) = (None, 0);
     if let Some(wp) = &search.wall_press {
-        let plan = family.plan(&initial, start, "start");
         let (pressed, rounds) =
-            add_wall_presses(&plan, start, world, wp, screen_seed_for(search.seed))?;
-        if rounds.iter().any(Screened::improves) {
-            let radius_um = match &search.init {
-                Init::Plan { radius_um, .. } => *radius_um,
-                _ => default_radius_um(world.model.part.polygon()),
-            };
-            let f = PathFamily::around(&pressed, radius_um);
-            initial = f.initial().to_vec();
-            family = Box::new(f);
-        }
+            with_wall_presses(start_point, wp, world, start, (search.seed, radius_um))?;
+        start_point = pressed;
         // The screening's replays come out of the design's budget.
-        let used: usize = rounds.iter().map(Screened::replays).sum();
-        settings.max_replays = settings.max_replays.saturating_sub(used);
+        screen_replays = rounds.iter().map(Screened::replays).sum();
+        settings.max_replays = settings.max_replays.saturating_sub(screen_replays);
         screened = Some(rounds);
     }
+    let (family, initial) = start_point;
     let settings = &settings;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(search.seed);
     let mut on_progress = |g: usize, best: f64| {
@@ -215,7 +243,7 @@ pub fn search_robust(
     let pushes = pushing_moves(&nominal);
     Ok(RobustReport {
         param_names: family.names(),
-        stopped_by_time: design.stopped_early,
+        stopped_by_time: design.stopped_by_time,
         design,
         check,
         check_seed,
@@ -226,7 +254,8 @@ pub fn search_robust(
         training_samples: settings.samples,
         validation_samples: settings.validation_samples,
         confirmation_samples: settings.confirm_samples,
-        max_replays: settings.max_replays,
+        max_replays: search.design.max_replays,
+        screen_replays,
         wall_press: screened,
     })
 }

@@ -20,7 +20,7 @@ pub const SCREEN_SAMPLES: usize = 64;
 
 /// The screening worlds' seed for design seed `seed` (apart from the design's own stream and
 /// from its check's).
-pub fn screen_seed_for(seed: u64) -> u64 {
+pub fn rrt_screen_seed_for(seed: u64) -> u64 {
     seed.wrapping_add(0x0000_0AA7_5EED)
 }
 

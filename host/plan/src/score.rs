@@ -34,6 +34,16 @@ pub fn outcomes(
     start: PegStart,
 ) -> Vec<Vec<bool>> {
     let plans: Vec<Plan> = cands.iter().map(|s| family.plan(s, start, "")).collect();
+    plan_outcomes(&plans, worlds, world)
+}
+
+/// Every plan's outcome in every world of `worlds` (one flat parallel batch, in order); a
+/// plan whose probe path runs into a wall fails every world unsimulated.
+pub fn plan_outcomes(
+    plans: &[Plan],
+    worlds: &[Draw],
+    world: &UncertainWorld<'_>,
+) -> Vec<Vec<bool>> {
     let r = world.model.probe_radius_um;
     let clear: Vec<bool> = plans
         .iter()

@@ -7,18 +7,19 @@
 //! move and direction (±x, ±y): after that push the probe backs off, goes round behind the
 //! part, pushes it along the direction until it meets the nearest wall that way (plus an
 //! overshoot, which the needle's compliance absorbs), backs off again and returns to where the
-//! plan left off. [`screen_wall_presses`] keeps the variant that succeeds most often on sampled
-//! worlds, and only if it beats the plan without it; the robust design then tunes all its
-//! moves ([`crate::family::PathFamily`]).
+//! plan left off. [`screen_wall_presses`] scores every variant and the plan on the same
+//! sampled worlds; [`add_wall_presses`] keeps the best variant only if it beats the plan
+//! without it, up to [`WallPressSettings::max_presses`] times; the robust design then tunes
+//! all the moves of the result ([`crate::family::PathFamily`]).
 
 use crate::clearance::{Obstacles, first_wall_violation};
-use crate::montecarlo::draws;
+use crate::montecarlo::{draws, trial_seed};
 use crate::route::{merge_moves, route};
+use crate::score::{count, plan_outcomes};
 use crate::world::UncertainWorld;
 use mesopush_core::geom::{ConvexPolygon, Vec2, cross};
 use mesopush_sim::plan::PegStart;
 use mesopush_sim::{Plan, Simulator, replay};
-use rayon::prelude::*;
 
 /// Settings of the wall presses (plain data; lengths as fractions of the part's diameter or
 /// of the needle's deflection limit, so they scale with the part and the probe).
@@ -68,8 +69,9 @@ pub struct WallPress {
 const DIRECTIONS: [(&str, [f64; 2]); 4] =
     [("+x", [1.0, 0.0]), ("-x", [-1.0, 0.0]), ("+y", [0.0, 1.0]), ("-y", [0.0, -1.0])];
 
-/// Distance along `d` from `p` to the boundary of convex `poly`, if the ray meets it.
-fn ray_distance(p: Vec2, d: Vec2, poly: &ConvexPolygon) -> Option<f64> {
+/// Distance along `d` from `p` to the boundary of convex `poly`, if the ray meets it (the
+/// nearest crossing beyond `tol`).
+fn ray_distance(p: Vec2, d: Vec2, poly: &ConvexPolygon, tol: f64) -> Option<f64> {
     let v = poly.vertices();
     (0..v.len())
         .filter_map(|i| {
@@ -81,18 +83,29 @@ fn ray_distance(p: Vec2, d: Vec2, poly: &ConvexPolygon) -> Option<f64> {
             }
             let t = cross(&(a - p), &e) / den;
             let s = cross(&(a - p), &d) / den;
-            (t >= 0.0 && (0.0..=1.0).contains(&s)).then_some(t)
+            (t > tol && (0.0..=1.0).contains(&s)).then_some(t)
         })
         .min_by(f64::total_cmp)
 }
 
-/// How far `part` can translate along `d` before it touches one of `walls`.
-pub fn gap_along(part: &ConvexPolygon, d: Vec2, walls: &[ConvexPolygon]) -> Option<f64> {
-    let from_part = walls
-        .iter()
-        .flat_map(|w| part.vertices().iter().filter_map(move |v| ray_distance(*v, d, w)));
-    let from_walls =
-        walls.iter().flat_map(|w| w.vertices().iter().filter_map(|u| ray_distance(*u, -d, part)));
+/// How far `part` can translate along `d` before it touches one of `walls`: the shortest ray
+/// from a vertex of one, outside the other by more than `tol`, to the other (points already
+/// touching or inside — a part resting on a wall sinks into it by the simulator's
+/// tolerance — cast no ray, so a part on the floor is not stopped by the floor it rests on).
+pub fn gap_along(part: &ConvexPolygon, d: Vec2, walls: &[ConvexPolygon], tol: f64) -> Option<f64> {
+    let outside = |p: &ConvexPolygon, v: &Vec2| p.signed_distance(v) > tol;
+    let from_part = walls.iter().flat_map(|w| {
+        part.vertices()
+            .iter()
+            .filter(|v| outside(w, v))
+            .filter_map(move |v| ray_distance(*v, d, w, tol))
+    });
+    let from_walls = walls.iter().flat_map(|w| {
+        w.vertices()
+            .iter()
+            .filter(|u| outside(part, u))
+            .filter_map(|u| ray_distance(*u, -d, part, tol))
+    });
     from_part.chain(from_walls).min_by(f64::total_cmp)
 }
 
@@ -106,9 +119,7 @@ pub fn wall_press_variants(
         Simulator::new(world.model.clone(), world.fixture.clone(), world.settings.clone())?;
     let rep = replay(&mut sim, plan, None)?;
     let part = world.model.part.polygon();
-    let v = part.vertices();
-    let diameter =
-        v.iter().flat_map(|a| v.iter().map(move |b| (*a - *b).norm())).fold(0.0, f64::max);
+    let diameter = part.diameter();
     let mut probe = plan.probe_start();
     let mut out = Vec::new();
     for (k, m) in plan.moves_um.iter().enumerate() {
@@ -134,11 +145,11 @@ pub fn wall_press_variants(
     Ok(out)
 }
 
-/// Whether `part` and one of `walls` overlap by more than a micrometre.
-fn overlaps(part: &ConvexPolygon, walls: &[ConvexPolygon]) -> bool {
+/// Whether `part` and one of `walls` overlap by more than `tol`.
+fn overlaps(part: &ConvexPolygon, walls: &[ConvexPolygon], tol: f64) -> bool {
     walls.iter().any(|w| {
-        part.vertices().iter().any(|v| w.signed_distance(v) < -1.0)
-            || w.vertices().iter().any(|v| part.signed_distance(v) < -1.0)
+        part.vertices().iter().any(|v| w.signed_distance(v) < -tol)
+            || w.vertices().iter().any(|v| part.signed_distance(v) < -tol)
     })
 }
 
@@ -146,6 +157,10 @@ fn overlaps(part: &ConvexPolygon, walls: &[ConvexPolygon]) -> bool {
 fn support(v: &[Vec2], c: Vec2, d: Vec2) -> f64 {
     v.iter().map(|p| (*p - c).dot(&d)).fold(f64::NEG_INFINITY, f64::max)
 }
+
+/// How close counts as touching, as a fraction of the part's diameter: 1e-3 (1.9 µm for the
+/// paper's peg; the simulator lets a part sink 1 µm into a wall).
+const TOUCH_FRACTION: f64 = 1e-3;
 
 /// The vertices of `outline` turned about its centroid so that the edge whose outward normal
 /// is nearest `d` faces along `d` exactly.
@@ -184,38 +199,41 @@ impl Press<'_> {
         settings: &WallPressSettings,
     ) -> Option<(f64, Vec<[f64; 2]>)> {
         let walls = &world.fixture.walls;
-        let gap = gap_along(self.outline, self.d, walls).filter(|g| *g > 1.0)?;
+        let tol = TOUCH_FRACTION * self.diameter;
+        let (c, d) = (self.outline.centroid(), self.d);
+        let gap = gap_along(self.outline, d, walls, tol)?;
         let clear = settings.clearance_fraction * self.diameter;
         let r = world.model.probe_radius_um;
-        let c = self.outline.centroid();
-        let behind = support(self.outline.vertices(), c, -self.d);
-        let s = c - self.d * (behind + r + clear);
-        let overshoot = settings.overshoot_fraction * world.model.probe_deflection_limit_um;
-        // Where the probe must reach: the part translated until it touches the wall, or —
-        // when it turns flat against the wall first — squared, with the face whose normal is
-        // nearest the press flush against it; whichever is farther.
-        let square = squared(self.outline, self.d);
-        let to_wall =
-            walls.iter().filter_map(|w| ray_distance(c, self.d, w)).min_by(f64::total_cmp);
-        let flush = to_wall.map_or(f64::NEG_INFINITY, |t| {
-            t - support(&square, c, self.d) - support(&square, c, -self.d)
-        });
-        // Squared only where the squared part fits there (no wall corner in the way).
-        let shift = self.d * (to_wall.unwrap_or(0.0) - support(&square, c, self.d));
-        let squared_at_wall = ConvexPolygon::new(square.iter().map(|p| *p + shift).collect())
-            .ok()
-            .filter(|p| flush > gap - behind && !overlaps(p, walls));
-        let (reach, moved) = match squared_at_wall {
-            Some(p) => (flush, p),
-            None => (gap - behind, self.outline.translated(&(self.d * gap))),
+        // The probe runs along the line through the centroid: it starts behind the part's
+        // farthest point and meets the part where that line crosses its outline.
+        let s = c - d * (support(self.outline.vertices(), c, -d) + r + clear);
+        let contact = |p: &ConvexPolygon, at: Vec2| ray_distance(at, -d, p, -1.0);
+        // Where the part ends: squared (the face whose normal is nearest the press flush
+        // against the wall it meets), if the squared part gets there without a wall corner in
+        // the way; else translated onto the first contact.
+        let turned = ConvexPolygon::new(squared(self.outline, d)).ok()?;
+        let squared_end = gap_along(&turned, d, walls, tol)
+            .map(|g| (g, turned.translated(&(d * g))))
+            .filter(|(_, p)| !overlaps(p, walls, tol));
+        let (shift, moved) = match squared_end {
+            Some((g, p)) if g > gap => (g, p),
+            _ => (gap, self.outline.translated(&(d * gap))),
         };
-        let e = c + self.d * (reach - r + overshoot);
-        let back = e - self.d * clear;
+        let behind = contact(&moved, c + d * shift)?;
+        let overshoot = settings.overshoot_fraction * world.model.probe_deflection_limit_um;
+        let e = c + d * (shift - behind - r + overshoot);
+        let back = e - d * (overshoot + clear);
         let lm = Vec2::new(self.last_move[0], self.last_move[1]);
         let off = self.probe - lm.normalize() * clear;
         let obstacles = |peg| Obstacles { walls, peg, probe_radius_um: r, peg_clearance_um: 0.0 };
         let there = route(off, s, &obstacles(Some(self.outline)))?;
         let home = route(back, off, &obstacles(Some(&moved)))?;
+        // The last step back onto the plan's path must not sweep through the moved part (up
+        // to touching it where the plan's push had left the probe touching the part).
+        let near = self.probe - lm.normalize() * tol;
+        if !obstacles(Some(&moved)).segment_free(&off, &near) {
+            return None;
+        }
         let mut moves = vec![[off.x - self.probe.x, off.y - self.probe.y]];
         moves.extend(there);
         moves.push([e.x - s.x, e.y - s.y]);
@@ -246,14 +264,15 @@ impl Screened {
         self.best.as_ref().is_some_and(|b| b.1 > self.without)
     }
 
-    /// Replays the screening ran.
+    /// Monte Carlo replays the screening ran (the variants' nominal replays, one each, are
+    /// not counted).
     pub fn replays(&self) -> usize {
         self.samples * (self.variants + 1)
     }
 }
 
 /// Adds up to [`WallPressSettings::max_presses`] presses to `plan`, one screening round each
-/// (round `i` on the worlds of `seed + i`), while the best variant beats the plan so far.
+/// (round `i` on the worlds of [`trial_seed`]`(seed, i)`), while the best variant beats the plan so far.
 /// Returns the plan and every round's screening.
 pub fn add_wall_presses(
     plan: &Plan,
@@ -265,7 +284,7 @@ pub fn add_wall_presses(
     let mut plan = plan.clone();
     let mut rounds = Vec::new();
     for i in 0..settings.max_presses {
-        let s = screen_wall_presses(&plan, start, world, settings, seed.wrapping_add(i as u64))?;
+        let s = screen_wall_presses(&plan, start, world, settings, trial_seed(seed, i as u64))?;
         let improves = s.improves();
         if let Some((best, _)) = s.best.as_ref().filter(|_| improves) {
             plan = best.plan.clone();
@@ -303,20 +322,10 @@ pub fn screen_wall_presses(
         .collect();
     let n = settings.screen_samples.max(1);
     let worlds = draws(world.model, &world.uncertainty, world.supports, n, seed);
-    let plans: Vec<&Plan> = std::iter::once(plan).chain(variants.iter().map(|v| &v.plan)).collect();
-    let ok: Vec<bool> = (0..plans.len() * n)
-        .into_par_iter()
-        .map(|k| {
-            crate::montecarlo::run_trial(
-                plans[k / n],
-                &worlds[k % n],
-                world.fixture,
-                world.settings,
-            )
-            .inserted
-        })
-        .collect();
-    let counts: Vec<usize> = ok.chunks(n).map(|c| c.iter().filter(|b| **b).count()).collect();
+    let plans: Vec<Plan> =
+        std::iter::once(plan.clone()).chain(variants.iter().map(|v| v.plan.clone())).collect();
+    let ok = plan_outcomes(&plans, &worlds, world);
+    let counts: Vec<usize> = ok.iter().map(|o| count(o)).collect();
     let best = (1..plans.len()).fold(None, |b: Option<usize>, i| {
         if b.is_none_or(|b| counts[i] > counts[b]) { Some(i) } else { b }
     });
@@ -337,10 +346,10 @@ mod tests {
         let part = ConvexPolygon::rectangle(200.0, 100.0).unwrap();
         let wall = mesopush_sim::fixture::rect(-1000.0, -400.0, 1000.0, -300.0).unwrap();
         // The part's top edge at y = −50, the wall's bottom at y = −300: 250 along −y.
-        let g = gap_along(&part, Vec2::new(0.0, -1.0), std::slice::from_ref(&wall)).unwrap();
+        let g = gap_along(&part, Vec2::new(0.0, -1.0), std::slice::from_ref(&wall), 1e-6).unwrap();
         assert!((g - 250.0).abs() < 1e-9, "{g}");
         // Nothing that way along +y.
-        assert_eq!(gap_along(&part, Vec2::new(0.0, 1.0), &[wall]), None);
+        assert_eq!(gap_along(&part, Vec2::new(0.0, 1.0), std::slice::from_ref(&wall), 1e-6), None);
         // A wall corner poking down at x = 0 meets the part's top edge (vertex of the wall).
         let spike = ConvexPolygon::new(vec![
             Vec2::new(-10.0, -500.0),
@@ -348,7 +357,15 @@ mod tests {
             Vec2::new(0.0, -120.0),
         ])
         .unwrap();
-        let g = gap_along(&part, Vec2::new(0.0, -1.0), &[spike]).unwrap();
+        let g = gap_along(&part, Vec2::new(0.0, -1.0), &[spike], 1e-6).unwrap();
         assert!((g - 70.0).abs() < 1e-9, "{g}");
+        // Resting on the wall (sunk 0.5 µm into it) the part is not stopped by it when pushed
+        // away, nor along it: the wall it rests on casts no ray.
+        let resting = part.translated(&Vec2::new(0.0, -249.5));
+        assert_eq!(
+            gap_along(&resting, Vec2::new(0.0, 1.0), std::slice::from_ref(&wall), 1.0),
+            None
+        );
+        assert_eq!(gap_along(&resting, Vec2::new(1.0, 0.0), &[wall], 1.0), None);
     }
 }

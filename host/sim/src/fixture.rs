@@ -64,6 +64,11 @@ impl Default for PaperFixtureParams {
     }
 }
 
+/// How far a vertex may lie outside the goal under `goal_whole_part`, as a fraction of the
+/// part's diameter: 1e-3, 1.9 µm for the paper's peg (the simulator lets a part sink 1 µm
+/// into a wall).
+pub const WHOLE_PART_TOLERANCE: f64 = 1e-3;
+
 /// Most walls a fixture may have.
 pub const MAX_WALLS: usize = 256;
 /// Where fixture vertices may lie, µm (±1 km about the origin: far beyond any fixture, yet

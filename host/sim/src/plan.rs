@@ -61,8 +61,7 @@ impl PegStart {
 impl Plan {
     /// Peg start as a pose in rad.
     pub fn peg_start_pose(&self) -> Pose {
-        let s = self.peg_start;
-        Pose::new(s.x_um, s.y_um, s.theta_deg.to_radians())
+        self.peg_start.pose()
     }
 
     /// Probe start as a vector, µm.

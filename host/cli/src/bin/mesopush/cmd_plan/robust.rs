@@ -8,9 +8,8 @@ use super::{CommonArgs, bar, load_world};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use mesopush_core::check::Allowed;
-use mesopush_plan::family::default_radius_um;
 use mesopush_plan::figures::draw_replayed_plan;
-use mesopush_plan::rrt_starts::{RrtStart, SCREEN_SAMPLES, best_rrt_plan, screen_seed_for};
+use mesopush_plan::rrt_starts::{RrtStart, SCREEN_SAMPLES, best_rrt_plan, rrt_screen_seed_for};
 use mesopush_plan::wall_press::WallPressSettings;
 use mesopush_plan::{
     Init, RobustReport, RobustSearch, RobustSettings, RrtSettings, UncertainWorld, search_robust,
@@ -75,7 +74,8 @@ pub(super) struct RobustArgs {
     from_rrt: bool,
     /// With --from-rrt: run the RRT from this many seeds (the first is --seed) and start from
     /// the plan that succeeds most often on 64 screening worlds.
-    #[arg(long, default_value_t = 8, value_parser = crate::ranges::count(1, 1000))]
+    /// (The RRT runs are bounded by their iterations, not by --time-limit-s.)
+    #[arg(long, default_value_t = 8, requires = "from_rrt", value_parser = crate::ranges::count(1, 1000))]
     rrt_starts: usize,
     /// How far each move's end may shift with --from-plan / --from-rrt, µm (default: 0.1 ×
     /// the part's diameter, 189 µm for the paper's peg).
@@ -157,6 +157,7 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
     let search = RobustSearch {
         design: robust_settings(args),
         init,
+        move_radius_um: args.move_radius_um,
         wall_press: args.wall_press.then(WallPressSettings::default),
         seed: c.seed,
         time_limit_s: c.time_limit_s,
@@ -194,14 +195,13 @@ fn init(
     from_plan: Option<Plan>,
     start: mesopush_sim::plan::PegStart,
 ) -> Result<(Init, Option<RrtStart>)> {
-    let radius_um = args.move_radius_um.unwrap_or(default_radius_um(sim.model().part.polygon()));
     if let Some(plan) = from_plan {
-        return Ok((Init::Plan { plan, radius_um }, None));
+        return Ok((Init::Plan { plan }, None));
     }
     if args.from_rrt {
         let seed = args.common.seed;
         let starts = (seed, args.rrt_starts);
-        let screen = (SCREEN_SAMPLES, screen_seed_for(seed));
+        let screen = (SCREEN_SAMPLES, rrt_screen_seed_for(seed));
         let rrt = RrtSettings::default();
         let Some(found) = best_rrt_plan(sim, start.pose(), &rrt, world, starts, screen)? else {
             let why = format!(
@@ -211,7 +211,7 @@ fn init(
             );
             return Err(crate::verdict::Negative(why).into());
         };
-        return Ok((Init::Plan { plan: found.plan.clone(), radius_um }, Some(found)));
+        return Ok((Init::Plan { plan: found.plan.clone() }, Some(found)));
     }
     let init = if args.from_shipped {
         Init::Shipped
@@ -258,7 +258,7 @@ fn summary(
         "validation_rate": r.validation_rate, "confirmation_rate": r.confirmation_rate,
         "replays": r.trials,
         "stopped_by_time": o.stopped_by_time, "out_of_budget": r.out_of_budget,
-        "max_replays": o.max_replays,
+        "max_replays": o.max_replays, "screen_replays": o.screen_replays,
         "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
         "iterations": r.evaluations, "generations": r.generations, "rounds": r.rounds,
         "validation_samples": o.validation_samples, "confirmation_samples": o.confirmation_samples,
@@ -324,6 +324,11 @@ fn print(c: &CommonArgs, o: &RobustReport, rrt: Option<&RrtStart>, written: bool
     if let Some(conf) = r.confirmation_rate {
         println!("on the {} confirmation worlds {:.1} %", o.confirmation_samples, 100.0 * conf);
     }
+    print_start_moves(o, rrt);
+}
+
+/// Where the search started: the RRT starts and the wall presses, in words.
+fn print_start_moves(o: &RobustReport, rrt: Option<&RrtStart>) {
     if let Some(r) = rrt {
         let found = r.runs.iter().filter(|x| x.1.is_some()).count();
         println!(
