@@ -142,7 +142,12 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
     if let Some(p) = c.start {
         (start.x_um, start.y_um, start.theta_deg) = (p.x_um, p.y_um, p.theta_rad.to_degrees());
     }
-    check_start(&mut sim, "the peg start (--start or the plan's)", start.pose(), None)?;
+    let what = match (c.start, &args.from_plan) {
+        (Some(_), _) => "--start",
+        (None, Some(_)) => "the --from-plan plan's peg_start",
+        (None, None) => "Table II's peg start",
+    };
+    check_start(&mut sim, what, start.pose(), None)?;
     let (model, fixture) = (sim.model().clone(), sim.fixture().clone());
     let sim_settings = sim.settings().clone();
     let supports = match &args.supports {
