@@ -163,9 +163,11 @@ fn a_robust_plan_is_the_same_file_from_the_same_seed_on_one_thread_and_on_two() 
     // wall-clock budget decided how many generations ran, issue 21).
     let dir = tempfile::tempdir().unwrap();
     let table2 = concat!(env!("CARGO_MANIFEST_DIR"), "/../../plans/table2.toml");
-    for (label, extra) in
-        [("table2 skeleton", vec!["--from-shipped"]), ("from a plan", vec!["--from-plan", table2])]
-    {
+    for (label, extra) in [
+        ("table2 skeleton", vec!["--from-shipped"]),
+        ("from a plan", vec!["--from-plan", table2]),
+        ("two stages with a wall press", vec!["--from-shipped", "--wall-press"]),
+    ] {
         let files: Vec<Vec<u8>> = [1, 2, 2]
             .iter()
             .enumerate()
@@ -222,6 +224,35 @@ fn the_replay_budget_ends_a_robust_search_and_a_wall_clock_limit_says_it_stopped
         (Some(1), Some(true)),
         "{timed}"
     );
+}
+
+#[test]
+fn a_wall_press_stage_presses_before_the_first_move_and_its_plan_wins_only_on_more_worlds() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.toml");
+    let o = small_robust(&out, 2, &["--from-shipped", "--wall-press", "--max-replays", "4000"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let st = &v["stage2"];
+    // Table II's peg starts 94 µm below the upper wall: the press before the first move goes
+    // there (the lower wall is 3 times as far, and the plan after it then fails nominally).
+    assert_eq!(st["press"]["before_first_move"], true, "{v}");
+    assert_eq!(st["press"]["direction"], "-y", "{v}");
+    let gap = st["press"]["gap_um"].as_f64().unwrap();
+    assert!((gap - 94.0).abs() < 5.0, "{v}");
+    let c = &st["choice"];
+    let (first, second) = (c["first_successes"].as_u64(), c["second_successes"].as_u64());
+    assert_eq!(c["second_wins"].as_bool(), Some(second > first), "{v}");
+    // The plan written is stage 2's (it starts with the press: the probe goes down past the
+    // peg's lower end first) only if it won.
+    let plan: Plan = toml::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let starts_with_press = plan.moves_um[0][1] > 700.0;
+    assert_eq!(starts_with_press, second > first, "{v}\n{:?}", plan.moves_um);
+    assert!(v["total_replays"].as_u64().unwrap() <= 4000, "{v}");
+    // Without the press the same two stages run, none is inserted.
+    let o = small_robust(&out, 2, &["--from-shipped", "--refine-moves", "--max-replays", "4000"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["stage2"]["press"].is_null() && !v["stage2"]["choice"].is_null(), "{v}");
 }
 
 #[test]

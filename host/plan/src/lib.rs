@@ -53,6 +53,8 @@ pub mod robust_search;
 pub mod robust_settings;
 pub mod score;
 pub mod skeleton;
+pub mod staged;
+pub mod wall_geometry;
 pub mod wall_press;
 pub mod world;
 

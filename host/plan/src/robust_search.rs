@@ -13,7 +13,7 @@ use crate::pushes::pushing_moves;
 use crate::robust::{RobustResult, design_robust};
 use crate::robust_settings::RobustSettings;
 use crate::skeleton::Skeleton;
-use crate::wall_press::{Screened, WallPressSettings, add_wall_presses};
+use crate::staged::{Refine, Stage2, Stage2Input, first_stage_budget, second_stage};
 use crate::world::UncertainWorld;
 use mesopush_sim::plan::PegStart;
 use mesopush_sim::{Overload, Plan, Simulator, replay};
@@ -57,10 +57,11 @@ pub struct RobustSearch {
     /// [`Init::Plan`], or after wall presses), µm. Default none: [`default_radius_um`] of
     /// the part.
     pub move_radius_um: Option<f64>,
-    /// Before the search, try a press against a wall after each push of the start plan
-    /// ([`crate::wall_press`]) and search from the best variant, if one beats the start on
-    /// the screening worlds. Default none.
-    pub wall_press: Option<WallPressSettings>,
+    /// A second stage after the design over the start family ([`crate::staged`]): search
+    /// the moves of its plan again, with the best-screened press against a wall inserted
+    /// ([`Refine::WallPress`]) or as it is ([`Refine::Moves`]); the two stages share
+    /// [`RobustSettings::max_replays`] (stage 1 gets half). Default none: one stage.
+    pub refine: Option<Refine>,
     /// Seed of the design's ChaCha8 stream (same seed, same plan). Default 1.
     pub seed: u64,
     /// Wall-clock limit, s: when it passes, no further generation starts (the finalists
@@ -80,7 +81,7 @@ impl Default for RobustSearch {
             design: RobustSettings::default(),
             init: Init::default(),
             move_radius_um: None,
-            wall_press: None,
+            refine: None,
             seed: 1,
             time_limit_s: None,
             check_samples: 400,
@@ -125,21 +126,14 @@ pub struct RobustReport {
     pub validation_samples: usize,
     /// Confirmation worlds ([`RobustSettings::confirm_samples`]).
     pub confirmation_samples: usize,
-    /// The replay budget ([`RobustSettings::max_replays`]), the wall-press screening's
-    /// replays included.
+    /// The replay budget ([`RobustSettings::max_replays`]) of both stages.
     pub max_replays: usize,
-    /// Monte Carlo replays of the wall-press screening (taken from the budget before the
-    /// design; not in the design's `trials`).
-    pub screen_replays: usize,
-    /// The wall-press screening rounds, when asked for (the presses added are those of the
-    /// rounds that [`Screened::improves`]).
-    pub wall_press: Option<Vec<Screened>>,
-}
-
-/// The seed of the wall-press screening's worlds for design seed `seed` (apart from the
-/// design's own stream, so asking for the screening leaves the design's draws unchanged).
-pub fn wall_press_seed_for(seed: u64) -> u64 {
-    seed.wrapping_add(0x0057_A11F_0CE5)
+    /// Replays of every stage, screening and choice together (the design's own `trials`
+    /// count only the returned stage's).
+    pub total_replays: usize,
+    /// The second stage, when asked for (`design` is its plan if it won the choice, else
+    /// stage 1's).
+    pub stage2: Option<Stage2>,
 }
 
 /// The family `init` searches, and its start parameters for a peg starting at `start`;
@@ -171,25 +165,6 @@ pub fn family_for(
 /// A family and its start parameters.
 pub type StartPoint = (Box<dyn PlanFamily>, Vec<f64>);
 
-/// The family's start with wall presses added (when any wins its screening: then the
-/// search runs over the pressed plan's moves), the screening rounds and their replays.
-fn with_wall_presses(
-    (family, initial): StartPoint,
-    wp: &WallPressSettings,
-    world: &UncertainWorld<'_>,
-    start: PegStart,
-    (seed, radius_um): (u64, f64),
-) -> Result<(StartPoint, Vec<Screened>), Error> {
-    let plan = family.plan(&initial, start, "start");
-    let (pressed, rounds) = add_wall_presses(&plan, start, world, wp, wall_press_seed_for(seed))?;
-    if !rounds.iter().any(Screened::improves) {
-        return Ok(((family, initial), rounds));
-    }
-    let f = PathFamily::around(&pressed, radius_um);
-    let initial = f.initial().to_vec();
-    Ok(((Box::new(f), initial), rounds))
-}
-
 /// Designs a robust plan for a peg starting at `start` in `world` under `search`'s budget,
 /// then checks it; `progress(generation, best_training_rate)` sees every generation.
 pub fn search_robust(
@@ -204,27 +179,43 @@ pub fn search_robust(
         let why = format!("{radius_um} µm: allowed a finite length above 0");
         return Err(Error::invalid("move_radius_um", why));
     }
-    let mut start_point = family_for(&search.init, world, start, radius_um)?;
+    let (family, initial) = family_for(&search.init, world, start, radius_um)?;
     let t0 = Instant::now();
-    let (mut screened, mut screen_replays) = (None, 0);
-    if let Some(wp) = &search.wall_press {
-        let (pressed, rounds) =
-            with_wall_presses(start_point, wp, world, start, (search.seed, radius_um))?;
-        start_point = pressed;
-        // The screening's replays come out of the design's budget.
-        screen_replays = rounds.iter().map(Screened::replays).sum();
-        settings.max_replays = settings.max_replays.saturating_sub(screen_replays);
-        screened = Some(rounds);
+    if search.refine.is_some() {
+        settings.max_replays = first_stage_budget(search.design.max_replays);
     }
-    let (family, initial) = start_point;
-    let settings = &settings;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(search.seed);
     let mut on_progress = |g: usize, best: f64| {
         progress(g, best);
         search.time_limit_s.is_none_or(|limit| t0.elapsed().as_secs_f64() < limit)
     };
-    let design =
-        design_robust(world, start, &*family, &initial, settings, &mut rng, &mut on_progress)?;
+    let first =
+        design_robust(world, start, &*family, &initial, &settings, &mut rng, &mut on_progress)?;
+    let (design, param_names, stage2) = match search.refine {
+        None => (first, family.names(), None),
+        Some(refine) => {
+            let input = Stage2Input {
+                world,
+                start,
+                settings: &search.design,
+                radius_um,
+                seed: search.seed,
+            };
+            let first = (first, family.names());
+            let st = second_stage(&input, refine, first, &mut rng, &mut on_progress)?;
+            let (design, names) = match (&st.second, &st.choice) {
+                (Some(d), Some(c)) if c.second_wins() => (d.clone(), st.second_param_names.clone()),
+                _ => (st.first.clone(), st.first_param_names.clone()),
+            };
+            (design, names, Some(st))
+        }
+    };
+    let total_replays = stage2.as_ref().map_or(design.trials, |st| {
+        st.first.trials + st.second.as_ref().map_or(0, |d| d.trials) + st.extra_replays
+    });
+    let stopped_by_time = stage2.as_ref().map_or(design.stopped_by_time, |st| {
+        st.first.stopped_by_time || st.second.as_ref().is_some_and(|d| d.stopped_by_time)
+    });
     let planning_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mut sim =
         Simulator::new(world.model.clone(), world.fixture.clone(), world.settings.clone())?;
@@ -242,8 +233,8 @@ pub fn search_robust(
     let nominal = replay(&mut sim, &design.plan, None)?;
     let pushes = pushing_moves(&nominal);
     Ok(RobustReport {
-        param_names: family.names(),
-        stopped_by_time: design.stopped_by_time,
+        param_names,
+        stopped_by_time,
         design,
         check,
         check_seed,
@@ -255,7 +246,7 @@ pub fn search_robust(
         validation_samples: settings.validation_samples,
         confirmation_samples: settings.confirm_samples,
         max_replays: search.design.max_replays,
-        screen_replays,
-        wall_press: screened,
+        total_replays,
+        stage2,
     })
 }

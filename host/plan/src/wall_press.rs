@@ -3,8 +3,9 @@
 //! it started (the sensorless idea the paper's discussion points to: orient parts by pushing
 //! them against fences).
 //!
-//! [`wall_press_variants`] builds, from a plan and its nominal replay, one variant per pushing
-//! move and direction (±x, ±y): after that push the probe backs off, goes round behind the
+//! [`wall_press_variants`] builds, from a plan and its nominal replay, one variant per
+//! direction (±x, ±y) before the first move and after each pushing move: there the probe
+//! backs off (after a push), goes round behind the
 //! part, pushes it along the direction until it meets the nearest wall that way (plus an
 //! overshoot, which the needle's compliance absorbs), backs off again and returns to where the
 //! plan left off. [`screen_wall_presses`] scores every variant and the plan on the same
@@ -16,8 +17,9 @@ use crate::clearance::{Obstacles, first_wall_violation};
 use crate::montecarlo::{draws, trial_seed};
 use crate::route::{merge_moves, route};
 use crate::score::{count, plan_outcomes};
+use crate::wall_geometry::{TOUCH_FRACTION, gap_along, overlaps, ray_distance, squared, support};
 use crate::world::UncertainWorld;
-use mesopush_core::geom::{ConvexPolygon, Vec2, cross};
+use mesopush_core::geom::{ConvexPolygon, Vec2};
 use mesopush_sim::plan::PegStart;
 use mesopush_sim::{Plan, Simulator, replay};
 
@@ -39,6 +41,9 @@ pub struct WallPressSettings {
     /// Most presses added, one after another: each round screens the variants of the plan
     /// the last round chose, on new worlds, and stops when none beats it. Default 3.
     pub max_presses: usize,
+    /// Only presses before the first move (on the part where it starts, before any push has
+    /// spread its uncertainty). Default false.
+    pub at_start_only: bool,
 }
 
 impl Default for WallPressSettings {
@@ -49,6 +54,7 @@ impl Default for WallPressSettings {
             clearance_fraction: 0.05,
             screen_samples: 64,
             max_presses: 3,
+            at_start_only: false,
         }
     }
 }
@@ -56,8 +62,9 @@ impl Default for WallPressSettings {
 /// A plan with one wall press inserted.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WallPress {
-    /// After which move of the original plan (0-based) the press runs.
-    pub after_move: usize,
+    /// After which move of the original plan (0-based) the press runs; `None`: before the
+    /// first move, on the part where it starts (its start uncertainty not yet spread by a push).
+    pub after_move: Option<usize>,
     /// Direction of the press: "+x", "-x", "+y" or "-y".
     pub direction: &'static str,
     /// Nominal gap between the part and the wall before the press, µm.
@@ -68,46 +75,6 @@ pub struct WallPress {
 
 const DIRECTIONS: [(&str, [f64; 2]); 4] =
     [("+x", [1.0, 0.0]), ("-x", [-1.0, 0.0]), ("+y", [0.0, 1.0]), ("-y", [0.0, -1.0])];
-
-/// Distance along `d` from `p` to the boundary of convex `poly`, if the ray meets it (the
-/// nearest crossing beyond `tol`).
-fn ray_distance(p: Vec2, d: Vec2, poly: &ConvexPolygon, tol: f64) -> Option<f64> {
-    let v = poly.vertices();
-    (0..v.len())
-        .filter_map(|i| {
-            let (a, b) = (v[i], v[(i + 1) % v.len()]);
-            let e = b - a;
-            let den = cross(&d, &e);
-            if den.abs() < 1e-12 {
-                return None;
-            }
-            let t = cross(&(a - p), &e) / den;
-            let s = cross(&(a - p), &d) / den;
-            (t > tol && (0.0..=1.0).contains(&s)).then_some(t)
-        })
-        .min_by(f64::total_cmp)
-}
-
-/// How far `part` can translate along `d` before it touches one of `walls`: the shortest ray
-/// from a vertex of one, outside the other by more than `tol`, to the other (points already
-/// touching or inside — a part resting on a wall sinks into it by the simulator's
-/// tolerance — cast no ray, so a part on the floor is not stopped by the floor it rests on).
-pub fn gap_along(part: &ConvexPolygon, d: Vec2, walls: &[ConvexPolygon], tol: f64) -> Option<f64> {
-    let outside = |p: &ConvexPolygon, v: &Vec2| p.signed_distance(v) > tol;
-    let from_part = walls.iter().flat_map(|w| {
-        part.vertices()
-            .iter()
-            .filter(|v| outside(w, v))
-            .filter_map(move |v| ray_distance(*v, d, w, tol))
-    });
-    let from_walls = walls.iter().flat_map(|w| {
-        w.vertices()
-            .iter()
-            .filter(|u| outside(part, u))
-            .filter_map(|u| ray_distance(*u, -d, part, tol))
-    });
-    from_part.chain(from_walls).min_by(f64::total_cmp)
-}
 
 /// Every wall-press variant of `plan` (see the module header), in move then direction order.
 pub fn wall_press_variants(
@@ -120,72 +87,85 @@ pub fn wall_press_variants(
     let rep = replay(&mut sim, plan, None)?;
     let part = world.model.part.polygon();
     let diameter = part.diameter();
-    let mut probe = plan.probe_start();
     let mut out = Vec::new();
-    for (k, m) in plan.moves_um.iter().enumerate() {
+    // Before the first move: the part where it starts, the probe where it starts.
+    let outline = part.transformed(&plan.peg_start_pose());
+    let at_start = Spot { outline: &outline, probe: plan.probe_start(), last_move: None };
+    out.extend(at_start.variants(None, &[], &plan.moves_um, world, settings, diameter));
+    let mut probe = plan.probe_start();
+    let after_pushes = if settings.at_start_only { &[][..] } else { &plan.moves_um[..] };
+    for (k, m) in after_pushes.iter().enumerate() {
         probe += Vec2::new(m[0], m[1]);
         let during: Vec<_> = rep.samples.iter().filter(|s| s.move_index == k).collect();
         let pushed = during.iter().any(|s| s.probe_force > 0.0);
         let Some(last) = during.last().filter(|_| pushed) else { continue };
         let outline = part.transformed(&last.peg);
-        for (name, d) in DIRECTIONS {
-            let d = Vec2::new(d[0], d[1]);
-            let press = Press { outline: &outline, probe, last_move: *m, d, diameter };
-            if let Some((gap, moves)) = press.moves(world, settings)
-                && gap <= settings.max_gap_fraction * diameter
-            {
-                let mut all = plan.moves_um[..=k].to_vec();
-                all.extend(moves);
-                all.extend_from_slice(&plan.moves_um[k + 1..]);
-                let plan = Plan { moves_um: merge_moves(all), ..plan.clone() };
-                out.push(WallPress { after_move: k, direction: name, gap_um: gap, plan });
-            }
-        }
+        let spot = Spot { outline: &outline, probe, last_move: Some(*m) };
+        let (before, after) = plan.moves_um.split_at(k + 1);
+        out.extend(spot.variants(Some(k), before, after, world, settings, diameter));
     }
+    let out = out
+        .into_iter()
+        .map(|(after_move, direction, gap_um, moves_um)| WallPress {
+            after_move,
+            direction,
+            gap_um,
+            plan: Plan { moves_um, ..plan.clone() },
+        })
+        .collect();
     Ok(out)
 }
 
-/// Whether `part` and one of `walls` overlap by more than `tol`.
-fn overlaps(part: &ConvexPolygon, walls: &[ConvexPolygon], tol: f64) -> bool {
-    walls.iter().any(|w| {
-        part.vertices().iter().any(|v| w.signed_distance(v) < -tol)
-            || w.vertices().iter().any(|v| part.signed_distance(v) < -tol)
-    })
+/// Where a press may start: the part's outline and the probe's position there, and the move
+/// that brought the probe (none at the plan's start, where the probe is not touching).
+struct Spot<'a> {
+    outline: &'a ConvexPolygon,
+    probe: Vec2,
+    last_move: Option<[f64; 2]>,
 }
 
-/// The largest extent of `v` from `c` along `d`.
-fn support(v: &[Vec2], c: Vec2, d: Vec2) -> f64 {
-    v.iter().map(|p| (*p - c).dot(&d)).fold(f64::NEG_INFINITY, f64::max)
-}
+/// A variant before it becomes a plan: after which move, direction, gap, all moves.
+type Variant = (Option<usize>, &'static str, f64, Vec<[f64; 2]>);
 
-/// How close counts as touching, as a fraction of the part's diameter: 1e-3 (1.9 µm for the
-/// paper's peg; the simulator lets a part sink 1 µm into a wall).
-const TOUCH_FRACTION: f64 = 1e-3;
-
-/// The vertices of `outline` turned about its centroid so that the edge whose outward normal
-/// is nearest `d` faces along `d` exactly.
-fn squared(outline: &ConvexPolygon, d: Vec2) -> Vec<Vec2> {
-    let v = outline.vertices();
-    let c = outline.centroid();
-    let best = (0..v.len())
-        .max_by(|&a, &b| outline.edge_normal(a).dot(&d).total_cmp(&outline.edge_normal(b).dot(&d)))
-        .unwrap_or(0);
-    let n = outline.edge_normal(best);
-    let turn = cross(&n, &d).atan2(n.dot(&d));
-    let (sn, cs) = turn.sin_cos();
-    v.iter()
-        .map(|p| {
-            let q = *p - c;
-            c + Vec2::new(cs * q.x - sn * q.y, sn * q.x + cs * q.y)
-        })
-        .collect()
+impl Spot<'_> {
+    /// One variant per direction with a wall near enough: `before`, the press, `after`.
+    fn variants(
+        &self,
+        after_move: Option<usize>,
+        before: &[[f64; 2]],
+        after: &[[f64; 2]],
+        world: &UncertainWorld<'_>,
+        settings: &WallPressSettings,
+        diameter: f64,
+    ) -> Vec<Variant> {
+        let mut out = Vec::new();
+        for (name, d) in DIRECTIONS {
+            let d = Vec2::new(d[0], d[1]);
+            let press = Press {
+                outline: self.outline,
+                probe: self.probe,
+                last_move: self.last_move,
+                d,
+                diameter,
+            };
+            if let Some((gap, moves)) = press.moves(world, settings)
+                && gap <= settings.max_gap_fraction * diameter
+            {
+                let mut all = before.to_vec();
+                all.extend(moves);
+                all.extend_from_slice(after);
+                out.push((after_move, name, gap, merge_moves(all)));
+            }
+        }
+        out
+    }
 }
 
 /// One press being built.
 struct Press<'a> {
     outline: &'a ConvexPolygon,
     probe: Vec2,
-    last_move: [f64; 2],
+    last_move: Option<[f64; 2]>,
     d: Vec2,
     diameter: f64,
 }
@@ -223,15 +203,18 @@ impl Press<'_> {
         let overshoot = settings.overshoot_fraction * world.model.probe_deflection_limit_um;
         let e = c + d * (shift - behind - r + overshoot);
         let back = e - d * (overshoot + clear);
-        let lm = Vec2::new(self.last_move[0], self.last_move[1]);
-        let off = self.probe - lm.normalize() * clear;
+        // Back off along the move that brought the probe (at the plan's start it touches
+        // nothing: it leaves from where it is).
+        let back_dir = self.last_move.map(|m| Vec2::new(m[0], m[1]).normalize());
+        let off = back_dir.map_or(self.probe, |b| self.probe - b * clear);
         let obstacles = |peg| Obstacles { walls, peg, probe_radius_um: r, peg_clearance_um: 0.0 };
         let there = route(off, s, &obstacles(Some(self.outline)))?;
         let home = route(back, off, &obstacles(Some(&moved)))?;
         // The last step back onto the plan's path must not sweep through the moved part (up
         // to touching it where the plan's push had left the probe touching the part).
-        let near = self.probe - lm.normalize() * tol;
-        if !obstacles(Some(&moved)).segment_free(&off, &near) {
+        if let Some(b) = back_dir
+            && !obstacles(Some(&moved)).segment_free(&off, &(self.probe - b * tol))
+        {
             return None;
         }
         let mut moves = vec![[off.x - self.probe.x, off.y - self.probe.y]];
@@ -335,37 +318,4 @@ pub fn screen_wall_presses(
         samples: n,
         variants: variants.len(),
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_gap_to_a_wall_is_the_translation_that_makes_them_touch() {
-        let part = ConvexPolygon::rectangle(200.0, 100.0).unwrap();
-        let wall = mesopush_sim::fixture::rect(-1000.0, -400.0, 1000.0, -300.0).unwrap();
-        // The part's top edge at y = −50, the wall's bottom at y = −300: 250 along −y.
-        let g = gap_along(&part, Vec2::new(0.0, -1.0), std::slice::from_ref(&wall), 1e-6).unwrap();
-        assert!((g - 250.0).abs() < 1e-9, "{g}");
-        // Nothing that way along +y.
-        assert_eq!(gap_along(&part, Vec2::new(0.0, 1.0), std::slice::from_ref(&wall), 1e-6), None);
-        // A wall corner poking down at x = 0 meets the part's top edge (vertex of the wall).
-        let spike = ConvexPolygon::new(vec![
-            Vec2::new(-10.0, -500.0),
-            Vec2::new(10.0, -500.0),
-            Vec2::new(0.0, -120.0),
-        ])
-        .unwrap();
-        let g = gap_along(&part, Vec2::new(0.0, -1.0), &[spike], 1e-6).unwrap();
-        assert!((g - 70.0).abs() < 1e-9, "{g}");
-        // Resting on the wall (sunk 0.5 µm into it) the part is not stopped by it when pushed
-        // away, nor along it: the wall it rests on casts no ray.
-        let resting = part.translated(&Vec2::new(0.0, -249.5));
-        assert_eq!(
-            gap_along(&resting, Vec2::new(0.0, 1.0), std::slice::from_ref(&wall), 1.0),
-            None
-        );
-        assert_eq!(gap_along(&resting, Vec2::new(1.0, 0.0), &[wall], 1.0), None);
-    }
 }

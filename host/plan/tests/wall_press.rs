@@ -32,9 +32,9 @@ fn a_press_against_the_upper_wall_squares_the_peg_whatever_its_turn() {
         let variants = wall_press_variants(&plan, &world, &WallPressSettings::default()).unwrap();
         let up = variants
             .iter()
-            .find(|v| v.direction == "-y")
+            .find(|v| v.direction == "-y" && v.after_move == Some(0))
             .unwrap_or_else(|| panic!("{theta_deg}°: no press towards the upper wall"));
-        assert_eq!(up.after_move, 0);
+        assert_eq!(up.after_move, Some(0));
         let end = replay(&mut sim, &up.plan, None).unwrap();
         assert!(end.overload.is_none(), "{theta_deg}°: {:?}", end.overload);
         let top = model.part.polygon().transformed(&end.final_pose).bounds().0.y;
@@ -76,4 +76,32 @@ fn presses_are_added_only_while_they_beat_the_plan_on_the_screening_worlds() {
     }
     // Deterministic for the seed.
     assert_eq!(add_wall_presses(&plan, plan.peg_start, &world, &ws, 3).unwrap().0, out);
+}
+
+#[test]
+fn a_press_before_the_first_move_squares_the_peg_where_it_starts_against_the_nearest_wall() {
+    // Table II's start: the peg upright (89°) in the wide channel, its top edge about 94 µm
+    // below the upper wall (y = 300). A press before any push acts on the start's own
+    // uncertainty. The plan: one step of the probe away from the peg (+x), so its variant is
+    // the press and that step.
+    let (model, fixture, settings) = (Model::default(), Fixture::paper(), SimSettings::default());
+    let world = UncertainWorld::nominal(&model, &fixture, &settings);
+    let mut sim = Simulator::new(model.clone(), fixture.clone(), settings.clone()).unwrap();
+    let plan = Plan { moves_um: vec![[10.0, 0.0]], ..Plan::table2() };
+    let ws = WallPressSettings { at_start_only: true, ..Default::default() };
+    let variants = wall_press_variants(&plan, &world, &ws).unwrap();
+    assert!(variants.iter().all(|v| v.after_move.is_none()), "only presses at the start");
+    let up = variants.iter().find(|v| v.direction == "-y").expect("a press towards the upper wall");
+    let outline = model.part.polygon().transformed(&plan.peg_start_pose());
+    let gap = outline.bounds().0.y - 300.0;
+    assert!((up.gap_um - gap).abs() < 1e-6 * 1615.0, "gap {} µm, geometry {gap} µm", up.gap_um);
+    let end = replay(&mut sim, &up.plan, None).unwrap();
+    assert!(end.overload.is_none(), "{:?}", end.overload);
+    let top = model.part.polygon().transformed(&end.final_pose).bounds().0.y;
+    assert!((top - 300.0).abs() < 0.01 * 1615.0, "top edge at {top} µm, the wall at 300");
+    let turn = end.final_pose.theta_rad.to_degrees();
+    assert!((turn - 90.0).abs() < 0.5, "left at {turn:.2}° (started at 89°): not squared");
+    // The press returns the probe where it started, so the plan's own moves follow unchanged.
+    let sum = up.plan.moves_um.iter().fold([0.0, 0.0], |a, m| [a[0] + m[0], a[1] + m[1]]);
+    assert!((sum[0] - 10.0).abs() < 1e-9 && sum[1].abs() < 1e-9, "{sum:?}");
 }

@@ -10,6 +10,7 @@ use clap::Args;
 use mesopush_core::check::Allowed;
 use mesopush_plan::figures::draw_replayed_plan;
 use mesopush_plan::rrt_starts::{RrtStart, SCREEN_SAMPLES, best_rrt_plan, rrt_screen_seed_for};
+use mesopush_plan::staged::{Refine, Stage2};
 use mesopush_plan::wall_press::WallPressSettings;
 use mesopush_plan::{
     Init, RobustReport, RobustSearch, RobustSettings, RrtSettings, UncertainWorld, search_robust,
@@ -87,11 +88,16 @@ pub(super) struct RobustArgs {
     /// the model's support perturbed by ±100 µm, as `robustness` does.
     #[arg(long)]
     supports: Option<PathBuf>,
-    /// Before the search, try pressing the part against a wall after each push of the start
-    /// plan (an uncertainty-removing move) and search from the best variant if it beats the
-    /// start on the screening worlds (its replays count against --max-replays).
-    #[arg(long)]
+    /// Two stages: after the design over the start family, insert the best of the presses
+    /// of the part against a wall before the first move (an uncertainty-removing move,
+    /// ranked on 64 screening worlds) and search all the plan's moves again; the result replaces stage 1's plan only if it succeeds on more of 1000
+    /// common worlds. The stages share --max-replays (stage 1 gets half).
+    #[arg(long, conflicts_with = "refine_moves")]
     wall_press: bool,
+    /// Two stages as --wall-press, without the press: stage 2 searches stage 1's moves as
+    /// they are (the like-for-like comparison for --wall-press).
+    #[arg(long)]
+    refine_moves: bool,
     /// Budget of the whole design in plan replays (training, validation, confirmation): the
     /// search stops where the next generation would not fit. Same seed and budget, same
     /// plan, on any machine and thread count.
@@ -163,13 +169,18 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
         design: robust_settings(args),
         init,
         move_radius_um: args.move_radius_um,
-        wall_press: args.wall_press.then(WallPressSettings::default),
+        refine: if args.wall_press {
+            Some(Refine::WallPress(WallPressSettings { at_start_only: true, ..Default::default() }))
+        } else {
+            args.refine_moves.then_some(Refine::Moves)
+        },
         seed: c.seed,
         time_limit_s: c.time_limit_s,
         check_samples: args.check_samples,
         check_seed: args.check_seed,
     };
-    let bar = bar((search.design.generations * search.design.rounds) as u64, c.json);
+    let stages = if search.refine.is_some() { 2 } else { 1 };
+    let bar = bar((search.design.generations * search.design.rounds * stages) as u64, c.json);
     let mut on_progress = |g: usize, best: f64| {
         bar.set_position(g as u64);
         bar.set_message(format!("best {:.1} %", 100.0 * best));
@@ -263,27 +274,45 @@ fn summary(
         "validation_rate": r.validation_rate, "confirmation_rate": r.confirmation_rate,
         "replays": r.trials,
         "stopped_by_time": o.stopped_by_time, "out_of_budget": r.out_of_budget,
-        "max_replays": o.max_replays, "screen_replays": o.screen_replays,
+        "max_replays": o.max_replays,
         "pushes": o.pushes, "moves": r.plan.moves_um.len(), "travel_um": r.plan.travel_um(),
         "iterations": r.evaluations, "generations": r.generations, "rounds": r.rounds,
         "validation_samples": o.validation_samples, "confirmation_samples": o.confirmation_samples,
         "planning_ms": o.planning_ms, "seed": c.seed,
         "plan": if written { Some(&c.out) } else { None },
-        "wall_press": o.wall_press.as_ref().map(|rounds| rounds.iter().map(|w| json!({
-            "screened_variants": w.variants, "screen_samples": w.samples,
-            "successes_without": w.without,
-            "best_successes": w.best.as_ref().map(|b| b.1),
-            "used": w.improves(),
-            "after_move": w.best.as_ref().map(|b| b.0.after_move),
-            "direction": w.best.as_ref().map(|b| b.0.direction),
-            "gap_um": w.best.as_ref().map(|b| b.0.gap_um),
-        })).collect::<Vec<_>>()),
+        "total_replays": o.total_replays,
+        "stage2": o.stage2.as_ref().map(stage2_json),
         "rrt_start": rrt.map(|r| json!({
             "seed": r.seed, "successes": r.successes, "screen_samples": r.samples,
             "runs": r.runs.iter().map(|(s, n)| json!({"seed": s, "successes": n})).collect::<Vec<_>>(),
         })),
         "parameters": o.param_names.iter().zip(&r.params)
             .map(|(n, v)| (n.to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
+    })
+}
+
+/// The second stage in the `--json` summary.
+fn stage2_json(st: &Stage2) -> serde_json::Value {
+    let rates = |d: &mesopush_plan::RobustResult| {
+        json!({
+            "validation_rate": d.validation_rate, "confirmation_rate": d.confirmation_rate,
+            "training_rate": d.training_rate, "replays": d.trials, "generations": d.generations,
+        })
+    };
+    json!({
+        "first": rates(&st.first),
+        "second": st.second.as_ref().map(rates),
+        "press": st.press.map(|(after, dir, gap)| json!({
+            "after_move": after, "before_first_move": after.is_none(),
+            "direction": dir, "gap_um": gap,
+        })),
+        "screened_variants": st.screened.as_ref().map(|s| s.variants),
+        "screen_samples": st.screened.as_ref().map(|s| s.samples),
+        "choice": st.choice.map(|c| json!({
+            "samples": c.samples, "first_successes": c.first, "second_successes": c.second,
+            "second_wins": c.second_wins(),
+        })),
+        "skipped": st.skipped,
     })
 }
 
@@ -345,30 +374,20 @@ fn print_start_moves(o: &RobustReport, rrt: Option<&RrtStart>) {
             r.runs.len()
         );
     }
-    for (i, w) in o.wall_press.iter().flatten().enumerate() {
-        match &w.best {
-            Some((b, n)) if w.improves() => println!(
-                "wall press {}: after move {} towards {} (gap {:.0} µm), {n} of {} screening \
-                 worlds against {} without: added",
-                i + 1,
-                b.after_move,
-                b.direction,
-                b.gap_um,
-                w.samples,
-                w.without
-            ),
-            Some((_, n)) => println!(
-                "wall press {}: the best of {} variants succeeded on {n} of {} screening \
-                 worlds, the plan so far on {}: none added",
-                i + 1,
-                w.variants,
-                w.samples,
-                w.without
-            ),
-            None => println!(
-                "wall press {}: no variant reaches a wall and still inserts: none added",
-                i + 1
-            ),
-        }
+    let Some(st) = &o.stage2 else { return };
+    if let Some((after, dir, gap)) = st.press {
+        let at = after.map_or("before the first move".to_string(), |k| format!("after move {k}"));
+        println!("stage 2: a press towards {dir} {at} (gap {gap:.0} µm), then every move re-tuned");
+    }
+    match (&st.second, &st.choice, &st.skipped) {
+        (Some(_), Some(c), _) => println!(
+            "stage 1's plan succeeded on {} of {} common worlds, stage 2's on {}: {}",
+            c.first,
+            c.samples,
+            c.second,
+            if c.second_wins() { "stage 2's plan returned" } else { "stage 1's plan returned" }
+        ),
+        (_, _, Some(why)) => println!("stage 2 did not run ({why}): stage 1's plan returned"),
+        _ => {}
     }
 }
