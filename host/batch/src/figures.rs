@@ -8,7 +8,10 @@ use super::stats::wilson95;
 use crate::Error;
 use mesopush_core::geom::ConvexPolygon;
 use mesopush_plot::DrawResult;
-use mesopush_plot::fixture_view::{FIGURE_PX, VIEW_UM, fixture_chart};
+use mesopush_plot::fixture_view::{
+    VIEW_UM, figure_px, fixture_chart, fixture_legend, split_legend,
+};
+use mesopush_plot::legend_band::{Entry, Mark, draw_legend};
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::path::Path;
@@ -100,18 +103,20 @@ pub fn final_poses(
 ) -> Result<(), Error> {
     let draw = || -> DrawResult {
         mesopush_plot::font::register()?;
-        let area = BitMapBackend::new(path, FIGURE_PX).into_drawing_area();
+        // Walls, field, goal and one entry per verdict at most.
+        let entries = 3 + TrialVerdict::ALL.len();
+        let area = BitMapBackend::new(path, figure_px(entries)).into_drawing_area();
+        let (top, band) = split_legend(&area, entries)?;
         let title = "Final peg positions (centre of mass) by verdict";
-        let mut chart = fixture_chart(&area, title, walls)?;
+        let mut chart = fixture_chart(&top, title, walls)?;
+        let mut legend = fixture_legend();
         let (x0, x1, y0, y1) = VIEW_UM;
         if let Some(g) = goal {
             let mut pts: Vec<_> =
                 g.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect();
             pts.push(pts[0]);
-            chart
-                .draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(2))))?
-                .label("goal region")
-                .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], GREEN.stroke_width(2)));
+            chart.draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(2))))?;
+            legend.push(Entry::new(Mark::Line(GREEN.to_rgba(), 2), "goal region"));
         }
         for v in TrialVerdict::ALL {
             let pts: Vec<(f64, f64)> = finals
@@ -125,17 +130,11 @@ pub fn final_poses(
                 continue;
             }
             let c = colour(v);
-            chart
-                .draw_series(pts.iter().map(|p| Circle::new(*p, 3, c.filled())))?
-                .label(format!("{} ({})", v.as_str(), pts.len()))
-                .legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled()));
+            chart.draw_series(pts.iter().map(|p| Circle::new(*p, 3, c.filled())))?;
+            let text = format!("{} ({})", v.as_str(), pts.len());
+            legend.push(Entry::new(Mark::Dot(c.to_rgba()), text));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .border_style(BLACK)
-            .background_style(WHITE)
-            .draw()?;
+        draw_legend(&band, &legend)?;
         area.present()?;
         Ok(())
     };

@@ -4,6 +4,7 @@
 
 use crate::Error;
 use crate::montecarlo::{SampleOutcome, SweepPoint};
+use mesopush_plot::legend_band::{Entry, Mark, band_px, draw_legend};
 use mesopush_plot::{DrawResult, Figure, PlanFigure, draw_plan, save};
 use mesopush_sim::{Plan, Replay, Simulator, replay};
 use plotters::coord::Shift;
@@ -51,7 +52,7 @@ pub struct FailuresFigure<'a> {
 
 /// Draws [`FailuresFigure`] to `path` (.png or .svg).
 pub fn draw_failures(title: &str, trials: &[SampleOutcome], path: &Path) -> Result<(), Error> {
-    Ok(save(&FailuresFigure { title, trials }, path, (1200, 560))?)
+    Ok(save(&FailuresFigure { title, trials }, path, (1200, 560 + band_px(2)))?)
 }
 
 /// The range of `f` over `trials` with a 5 % margin ((−1, 1) when it is empty or flat).
@@ -73,8 +74,10 @@ impl Figure for FailuresFigure<'_> {
         DB::ErrorType: 'static,
     {
         area.fill(&WHITE)?;
-        let area = area.titled(self.title, ("sans-serif", 20))?;
-        let panels = area.split_evenly((1, 2));
+        let (_, h) = area.dim_in_pixel();
+        let (top, band) = area.split_vertically(h.saturating_sub(band_px(2)));
+        let top = top.titled(self.title, ("sans-serif", 20))?;
+        let panels = top.split_evenly((1, 2));
         let mu = |t: &SampleOutcome| t.draw.model.support.mu_surface.iter().sum::<f64>() / 3.0;
         let axes: [(Coord<'_>, Coord<'_>, &str, &str); 2] = [
             (&|t| t.draw.offset[0], &|t| t.draw.offset[1], "start Δx [µm]", "start Δy [µm]"),
@@ -83,6 +86,14 @@ impl Figure for FailuresFigure<'_> {
         for (panel, (fx, fy, xl, yl)) in panels.iter().zip(axes) {
             scatter(panel, self.trials, (fx, fy), (xl, yl))?;
         }
+        let legend = [
+            Entry::new(Mark::Dot(GREEN.to_rgba()), "inserted"),
+            Entry::new(
+                Mark::Cross(RED.to_rgba()),
+                "failed (jammed, missed or the needle overloaded)",
+            ),
+        ];
+        draw_legend(&band, &legend)?;
         area.present()?;
         Ok(())
     }
@@ -107,16 +118,9 @@ where
         .build_cartesian_2d(x0..x1, y0..y1)?;
     chart.configure_mesh().x_desc(xl).y_desc(yl).draw()?;
     let ok = trials.iter().filter(|t| t.inserted);
-    chart
-        .draw_series(ok.map(|t| Circle::new((fx(t), fy(t)), 3, GREEN.mix(0.6).filled())))?
-        .label("inserted")
-        .legend(|(x, y)| Circle::new((x, y), 4, GREEN.filled()));
+    chart.draw_series(ok.map(|t| Circle::new((fx(t), fy(t)), 3, GREEN.mix(0.6).filled())))?;
     let bad = trials.iter().filter(|t| !t.inserted);
-    chart
-        .draw_series(bad.map(|t| Cross::new((fx(t), fy(t)), 5, RED.stroke_width(2))))?
-        .label("failed")
-        .legend(|(x, y)| Cross::new((x, y), 5, RED.stroke_width(2)));
-    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    chart.draw_series(bad.map(|t| Cross::new((fx(t), fy(t)), 5, RED.stroke_width(2))))?;
     Ok(())
 }
 

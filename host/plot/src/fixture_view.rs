@@ -1,6 +1,7 @@
 //! The view every plan-space figure draws on: fixture coordinates in µm with y down (as the
 //! camera sees them), the walls filled and the camera field outlined.
 
+use crate::legend_band::{Entry, Mark, band_px};
 use crate::{DrawResult, Error};
 use mesopush_core::geom::ConvexPolygon;
 use mesopush_sim::fixture::FIELD_UM;
@@ -14,8 +15,11 @@ pub type FixtureChart<'a, DB> = ChartContext<
     Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
 >;
 
+/// The grey of the walls.
+const WALL_GREY: RGBColor = RGBColor(190, 190, 200);
+
 /// Fills the wall polygons (clipped to the view `(x0, x1, y0, y1)`) and outlines the camera
-/// field: the background shared by every fixture figure.
+/// field: the background shared by every fixture figure ([`fixture_legend`] names them).
 pub fn draw_walls_and_field<DB: DrawingBackend>(
     chart: &mut FixtureChart<'_, DB>,
     walls: &[ConvexPolygon],
@@ -24,24 +28,45 @@ pub fn draw_walls_and_field<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let grey = RGBColor(190, 190, 200);
-    for (i, w) in walls.iter().enumerate() {
+    for w in walls {
         let pts: Vec<_> =
             w.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect();
-        let drawn = chart.draw_series(std::iter::once(Polygon::new(pts, grey.filled())))?;
-        if i == 0 {
-            drawn
-                .label("fixture walls")
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], grey.filled()));
-        }
+        chart.draw_series(std::iter::once(Polygon::new(pts, WALL_GREY.filled())))?;
     }
     let (w, h) = (FIELD_UM[0], FIELD_UM[1]);
     let field = vec![(0.0, 0.0), (w, 0.0), (w, h), (0.0, h), (0.0, 0.0)];
-    chart
-        .draw_series(std::iter::once(PathElement::new(field, BLACK.stroke_width(1))))?
-        .label("camera field of view")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK));
+    chart.draw_series(std::iter::once(PathElement::new(field, BLACK.stroke_width(1))))?;
     Ok(())
+}
+
+/// The legend entries of what [`draw_walls_and_field`] draws.
+pub fn fixture_legend() -> Vec<Entry> {
+    vec![
+        Entry::new(Mark::Box(WALL_GREY.to_rgba()), "fixture walls"),
+        Entry::new(Mark::Line(BLACK.to_rgba(), 1), "camera field of view"),
+    ]
+}
+
+/// The canvas of a fixture figure whose legend band holds `entries` entries, px.
+pub fn figure_px(entries: usize) -> (u32, u32) {
+    (FIGURE_PX.0, FIGURE_PX.1 + band_px(entries))
+}
+
+/// A figure's area and the legend band under it.
+pub type FigureAndBand<DB> = (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>);
+
+/// Fills `area` white and splits it into the figure (above) and the band for a legend of
+/// `entries` entries (below, [`crate::legend_band::draw_legend`]).
+pub fn split_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: usize,
+) -> Result<FigureAndBand<DB>, Error>
+where
+    DB::ErrorType: 'static,
+{
+    area.fill(&WHITE)?;
+    let (_, h) = area.dim_in_pixel();
+    Ok(area.split_vertically(h.saturating_sub(band_px(entries))))
 }
 
 /// The view of the trajectory figures, `(x0, x1, y0, y1)` in µm: the camera field with room
@@ -49,7 +74,8 @@ where
 pub const VIEW_UM: (f64, f64, f64, f64) =
     (-1500.0, FIELD_UM[0] + 100.0, -100.0, FIELD_UM[1] + 100.0);
 
-/// Canvas of the fixture figures, px: the view at equal aspect with little to spare.
+/// Canvas of the fixture figures without their legend band, px: the view at equal aspect
+/// with little to spare ([`figure_px`] adds the band).
 pub const FIGURE_PX: (u32, u32) = (1011, 620);
 
 /// A white area with a titled chart over [`VIEW_UM`] (y down), the walls and the field drawn

@@ -12,6 +12,7 @@ pub mod error;
 pub mod fixture_drawing;
 pub mod fixture_view;
 pub mod font;
+pub mod legend_band;
 pub mod plan_view;
 pub mod save;
 

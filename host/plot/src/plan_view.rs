@@ -2,7 +2,8 @@
 //! and end bold, intermediate faint), the goal region and the probe tip positions as
 //! triangles, each named in the legend; equal aspect.
 
-use crate::fixture_view::{FIGURE_PX, VIEW_UM, fixture_chart};
+use crate::fixture_view::{VIEW_UM, figure_px, fixture_chart, fixture_legend, split_legend};
+use crate::legend_band::{Entry, Mark, draw_legend};
 use crate::{DrawResult, Error, Figure, save};
 use mesopush_core::geom::{ConvexPolygon, Pose};
 use plotters::coord::Shift;
@@ -33,7 +34,7 @@ pub struct PlanFigure<'a> {
 
 /// Draws the figure to `path`; the backend follows the extension (`.png` or `.svg`).
 pub fn draw_plan(fig: &PlanFigure<'_>, path: &Path) -> Result<(), Error> {
-    save(fig, path, FIGURE_PX)
+    save(fig, path, figure_px(LEGEND_ENTRIES))
 }
 
 impl Figure for PlanFigure<'_> {
@@ -45,11 +46,16 @@ impl Figure for PlanFigure<'_> {
     }
 }
 
+/// Entries of the legend: walls, field, goal, peg at the ends, peg between, probe tips.
+const LEGEND_ENTRIES: usize = 6;
+
 fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, fig: &PlanFigure<'_>) -> DrawResult
 where
     DB::ErrorType: 'static,
 {
-    let mut chart = fixture_chart(area, fig.title, fig.walls)?;
+    let (top, band) = split_legend(area, LEGEND_ENTRIES)?;
+    let mut chart = fixture_chart(&top, fig.title, fig.walls)?;
+    let mut legend = fixture_legend();
     let (x0, x1, y0, y1) = VIEW_UM;
     let clip = |p: &ConvexPolygon| -> Vec<(f64, f64)> {
         p.vertices().iter().map(|v| (v.x.clamp(x0, x1), v.y.clamp(y0, y1))).collect()
@@ -57,14 +63,15 @@ where
     if let Some(g) = fig.goal {
         let mut pts = clip(g);
         pts.push(pts[0]);
-        chart
-            .draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(2))))?
-            .label(if fig.goal_whole_part {
+        chart.draw_series(std::iter::once(PathElement::new(pts, GREEN.stroke_width(2))))?;
+        legend.push(Entry::new(
+            Mark::Line(GREEN.to_rgba(), 2),
+            if fig.goal_whole_part {
                 "goal region (inserted: the whole part inside it)"
             } else {
                 "goal region (inserted: peg centre inside by the insert depth)"
-            })
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], GREEN.stroke_width(2)));
+            },
+        ));
     }
     let n = fig.poses.len();
     let stride = (n / fig.max_outlines.max(1)).max(1);
@@ -77,28 +84,17 @@ where
             fig.part.transformed(pose).vertices().iter().map(|v| (v.x, v.y)).collect();
         pts.push(pts[0]);
         let style = if ends { BLUE.stroke_width(2) } else { BLUE.mix(0.35).stroke_width(1) };
-        let drawn = chart.draw_series(std::iter::once(PathElement::new(pts, style)))?;
+        chart.draw_series(std::iter::once(PathElement::new(pts, style)))?;
         if i == 0 {
-            drawn
-                .label("peg at start and end")
-                .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLUE.stroke_width(2)));
+            legend.push(Entry::new(Mark::Line(BLUE.to_rgba(), 2), "peg at start and end"));
         } else if i == stride && i + 1 != n {
-            drawn.label("peg in between").legend(|(x, y)| {
-                PathElement::new([(x, y), (x + 18, y)], BLUE.mix(0.35).stroke_width(1))
-            });
+            legend.push(Entry::new(Mark::Line(BLUE.mix(0.35), 1), "peg in between"));
         }
     }
     let tips = fig.probe_um.iter().step_by((fig.probe_um.len() / 60).max(1));
-    chart
-        .draw_series(tips.map(|p| TriangleMarker::new((p[0], p[1]), 5, RED.filled())))?
-        .label("probe tip (sampled positions)")
-        .legend(|(x, y)| TriangleMarker::new((x + 9, y), 5, RED.filled()));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerLeft)
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .draw()?;
+    chart.draw_series(tips.map(|p| TriangleMarker::new((p[0], p[1]), 5, RED.filled())))?;
+    legend.push(Entry::new(Mark::Triangle(RED.to_rgba()), "probe tip (sampled positions)"));
+    draw_legend(&band, &legend)?;
     area.present()?;
     Ok(())
 }

@@ -8,7 +8,8 @@
 
 use crate::Error;
 use mesopush_core::geom::{ConvexPolygon, Pose};
-use mesopush_plot::fixture_view::{FIGURE_PX, fixture_chart};
+use mesopush_plot::fixture_view::{figure_px, fixture_chart, fixture_legend, split_legend};
+use mesopush_plot::legend_band::{Entry, Mark, draw_legend};
 use mesopush_plot::{DrawResult, Figure, save};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -31,7 +32,7 @@ pub struct TrialFigure<'a> {
 
 /// Draws to `path` (`.png` or `.svg`).
 pub fn draw_trial(fig: &TrialFigure<'_>, path: &Path) -> Result<(), Error> {
-    Ok(save(fig, path, FIGURE_PX)?)
+    Ok(save(fig, path, figure_px(LEGEND_ENTRIES))?)
 }
 
 impl Figure for TrialFigure<'_> {
@@ -50,11 +51,16 @@ fn outline(part: &ConvexPolygon, pose: &Pose) -> Vec<(f64, f64)> {
     pts
 }
 
+/// Entries of the legend: walls, field, simulated, tracked.
+const LEGEND_ENTRIES: usize = 4;
+
 fn draw<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, fig: &TrialFigure<'_>) -> DrawResult
 where
     DB::ErrorType: 'static,
 {
-    let mut chart = fixture_chart(area, fig.title, fig.walls)?;
+    let (top, band) = split_legend(area, LEGEND_ENTRIES)?;
+    let mut chart = fixture_chart(&top, fig.title, fig.walls)?;
+    let mut legend = fixture_legend();
     let orange = RGBColor(230, 120, 20);
     for (poses, color, label) in [
         (fig.simulated, orange, "simulated by the host model: outlines, centre path"),
@@ -72,17 +78,10 @@ where
             }
         }
         let path: Vec<(f64, f64)> = poses.iter().map(|p| (p.x_um, p.y_um)).collect();
-        chart
-            .draw_series(std::iter::once(PathElement::new(path, color.stroke_width(2))))?
-            .label(label)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+        chart.draw_series(std::iter::once(PathElement::new(path, color.stroke_width(2))))?;
+        legend.push(Entry::new(Mark::Line(color.to_rgba(), 2), label));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerLeft)
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .draw()?;
+    draw_legend(&band, &legend)?;
     area.present()?;
     Ok(())
 }
