@@ -243,6 +243,20 @@ fn judge(r: &Replay, fixture: &Fixture) -> (TrialVerdict, String) {
         return (TrialVerdict::Inserted, format!("inserted: COM {:.0} µm inside the channel", -d));
     }
     let how = if jams > 0 { "missed after a jam" } else { "missed" };
+    if r.peg_in_goal {
+        // In the goal by the fixture's rule, but the needle was bent beyond its limit.
+        return (
+            TrialVerdict::Missed,
+            format!(
+                "{how}, the needle overloaded: the peg ended in the goal, the verdict does not count it"
+            ),
+        );
+    }
+    if d <= -fixture.insert_depth_um {
+        // Deep enough by the centre-of-mass rule: the fixture asks for the whole part inside.
+        let why = "part not wholly inside the channel (the fixture's goal_whole_part)";
+        return (TrialVerdict::Missed, format!("{how}, {why}: COM {:.0} µm deep", -d));
+    }
     if d < 0.0 {
         (TrialVerdict::Missed, format!("{how}, COM in the channel mouth: only {:.0} µm deep", -d))
     } else {
@@ -250,5 +264,37 @@ fn judge(r: &Replay, fixture: &Fixture) -> (TrialVerdict, String) {
             TrialVerdict::Missed,
             format!("{how}, COM short of the channel: {d:.0} µm outside; {jams} jam(s)"),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mesopush_sim::Plan;
+
+    fn judged(model: Model, fixture: Fixture) -> (TrialVerdict, String) {
+        let mut sim = Simulator::new(model, fixture.clone(), SimSettings::default()).unwrap();
+        let r = replay(&mut sim, &Plan::table2(), None).unwrap();
+        judge(&r, &fixture)
+    }
+
+    /// The miss text spoke only of the centre of mass: a peg in the goal with the needle
+    /// overloaded, or deep enough by its centre but not wholly inside a `goal_whole_part`
+    /// channel, was reported "only N µm deep" with N beyond the insert depth.
+    #[test]
+    fn a_miss_says_whether_the_needle_or_the_whole_part_rule_refused_it() {
+        let (v, why) = judged(Model::default(), Fixture::paper());
+        assert_eq!(v, TrialVerdict::Inserted, "{why}");
+        let weak = Model { probe_deflection_limit_um: 1e-3, ..Model::default() };
+        let (v, why) = judged(weak, Fixture::paper());
+        assert_eq!(v, TrialVerdict::Missed, "{why}");
+        assert!(why.contains("needle overloaded"), "{why}");
+        // Table II's peg ends at y ≈ 1508 µm, 985 µm wide: a goal 600 µm tall around it holds
+        // its centre 300 µm deep but not its outline.
+        let narrow = mesopush_sim::fixture::rect(-3000.0, 1200.0, 525.0, 1800.0).unwrap();
+        let whole = Fixture { goal: narrow, goal_whole_part: true, ..Fixture::paper() };
+        let (v, why) = judged(Model::default(), whole);
+        assert_eq!(v, TrialVerdict::Missed, "{why}");
+        assert!(why.contains("not wholly inside"), "{why}");
     }
 }

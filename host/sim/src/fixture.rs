@@ -176,11 +176,14 @@ impl Fixture {
 
     /// Whether a part whose outline (at its pose) is `outline` and whose centre of mass is
     /// `com` counts as inserted: the centre-of-mass rule, and with `goal_whole_part` every
-    /// vertex of the outline inside the goal too.
+    /// vertex of the outline inside the goal too, to within [`WHOLE_PART_TOLERANCE`] of the
+    /// outline's diameter (a part resting against the channel's wall sinks into it by the
+    /// simulator's penetration).
     pub fn part_inserted(&self, outline: &ConvexPolygon, com: &Vec2) -> bool {
+        let tol_um = WHOLE_PART_TOLERANCE * outline.diameter();
         self.inserted(com)
             && (!self.goal_whole_part
-                || outline.vertices().iter().all(|v| self.goal.contains(v, 0.0)))
+                || outline.vertices().iter().all(|v| self.goal.contains(v, tol_um)))
     }
 }
 
@@ -233,6 +236,26 @@ mod tests {
         assert!(f.part_inserted(&inside, &com));
         assert!(!f.part_inserted(&wedged, &com));
         assert!(!f.part_inserted(&inside, &Vec2::new(500.0, 1495.0)), "the depth rule still holds");
+    }
+
+    /// The tolerance was declared (1e-3 of the part's diameter) but not applied: a part
+    /// resting against the channel's wall, sunk into it by the simulator's 1 µm, failed the
+    /// whole-part rule.
+    #[test]
+    fn a_part_resting_against_the_channel_wall_is_inside_and_one_reaching_out_is_not() {
+        let f = Fixture { goal_whole_part: true, ..Fixture::paper() };
+        let top = PaperFixtureParams::default().narrow_top_um;
+        // The paper's peg (diameter 1889 µm: 1.9 µm of tolerance) lying in the channel.
+        let peg = ConvexPolygon::rectangle(1615.0, 985.0).unwrap();
+        let d = peg.diameter();
+        let at = |dy: f64| {
+            let com = Vec2::new(-1000.0, top + 492.5 + dy);
+            (peg.translated(&com), com)
+        };
+        let (sunk, com) = at(-1.0);
+        assert!(f.part_inserted(&sunk, &com), "sunk 1 µm into the wall it rests on");
+        let (out, com) = at(-2.0 * WHOLE_PART_TOLERANCE * d);
+        assert!(!f.part_inserted(&out, &com), "twice the tolerance outside");
     }
 
     #[test]

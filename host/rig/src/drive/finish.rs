@@ -12,7 +12,7 @@ use crate::client::session::SessionEnd;
 use crate::client::tracking::wrap_angle;
 use crate::plant::truth::TruthSample;
 use crate::plant::truth_log::{write_jams, write_truth};
-use mesopush_core::geom::{Pose, Vec2};
+use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
 use mesopush_protocol::host::TrialEventKind;
 use mesopush_sim::Fixture;
 use mesopush_trial::{EventRow, Outcome, TrialState};
@@ -68,12 +68,14 @@ pub(crate) fn finish(
     out_dir: &Path,
     rec: RecorderResult,
     truth: &[TruthSample],
-    fixture: &Fixture,
+    (fixture, part): (&Fixture, &ConvexPolygon),
     done: Finished,
 ) -> Result<TrialReport, Error> {
     write_truth(out_dir, truth, rec.t0_us.unwrap_or(0))?;
     let final_pose = final_pose(&rec);
-    let inserted = final_pose.map(|p| fixture.inserted(&Vec2::new(p.x_um, p.y_um)));
+    // The fixture's own goal rule (with `goal_whole_part`, the whole outline inside).
+    let inserted = final_pose
+        .map(|p| fixture.part_inserted(&part.transformed(&p), &Vec2::new(p.x_um, p.y_um)));
     let (state, reason) = end_state(done.end.as_ref(), rec.end);
     let refused = matches!(done.end, Some(SessionEnd::Refused(_) | SessionEnd::Rejected(_)))
         && rec.end.is_none();

@@ -163,7 +163,7 @@ pub fn run_realtime(
         camera_latency_us: world.camera_latency_us(),
         deflection_limit_um: world.deflection_limit_um(),
     };
-    finish(out_dir, recorded, world.truth(), world.fixture(), done)
+    finish(out_dir, recorded, world.truth(), (world.fixture(), world.peg_body()), done)
 }
 
 /// This thread's loop: the controller on the pty master, the world, the host session.

@@ -88,7 +88,8 @@ fn run_simulated(
         camera_latency_us: world.camera_latency_us(),
         deflection_limit_um: world.deflection_limit_um(),
     };
-    let mut report = finish(out_dir, recorded, world.truth(), world.fixture(), done)?;
+    let mut report =
+        finish(out_dir, recorded, world.truth(), (world.fixture(), world.peg_body()), done)?;
     classes.controller.detected = report.faults_detected;
     report.faults = classes;
     Ok(report)
