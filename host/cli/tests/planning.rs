@@ -216,6 +216,17 @@ fn the_replay_budget_ends_a_robust_search_and_a_wall_clock_limit_says_it_stopped
     let err = String::from_utf8_lossy(&tiny.stderr);
     assert_eq!(tiny.status.code(), Some(2), "{err}");
     assert!(err.contains("max_replays") && err.contains("at least"), "{err}");
+    // With two stages the first gets half: a budget that holds one stage but not half of it
+    // for the first of two is refused the same way, before any work.
+    let one = json(small_robust(&out, 2, &["--from-shipped"]))["replays"].as_u64().unwrap();
+    let half = small_robust(
+        &out,
+        2,
+        &["--from-shipped", "--wall-press", "--max-replays", &one.to_string()],
+    );
+    let err = String::from_utf8_lossy(&half.stderr);
+    assert_eq!(half.status.code(), Some(2), "{err}");
+    assert!(err.contains("max_replays") && err.contains("two stages"), "{err}");
     // A wall-clock limit shorter than one generation stops the search after its first and
     // says so.
     let timed = json(small_robust(&out, 2, &["--from-shipped", "--time-limit-s", "0.000001"]));

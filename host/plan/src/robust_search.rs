@@ -183,6 +183,17 @@ pub fn search_robust(
     let t0 = Instant::now();
     if search.refine.is_some() {
         settings.max_replays = first_stage_budget(search.design.max_replays);
+        // Stage 1 must hold one generation with its validation and confirmation (stage 2
+        // is skipped, and says so, when what is left cannot).
+        let least = 2 * crate::cem::min_replays(&settings);
+        if search.design.max_replays < least {
+            let why = format!(
+                "{} replays cannot hold the first of two stages (it gets half): allowed at \
+                 least {least}",
+                search.design.max_replays
+            );
+            return Err(Error::invalid("max_replays", why));
+        }
     }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(search.seed);
     let mut on_progress = |g: usize, best: f64| {
