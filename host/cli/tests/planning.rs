@@ -284,3 +284,18 @@ fn plan_robust_from_the_rrt_starts_from_the_most_successful_of_its_rrt_plans() {
     assert_eq!(r["screen_samples"], 64, "{r}");
     Plan::load(&out).unwrap().validate().unwrap();
 }
+
+#[test]
+fn the_shipped_two_stage_plan_inserts_in_its_nominal_replay_within_the_needle_limit() {
+    // plans/robust_wall_press.toml is a design written by `plan robust --wall-press`: the
+    // docs' figures and sweep use it, and `flash` may be given it, so it must stay feasible as
+    // the simulator changes (the probe clear of the walls, no overload, the peg inserted).
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../plans/robust_wall_press.toml");
+    let plan = Plan::load(std::path::Path::new(path)).unwrap();
+    let mut s = sim();
+    assert!(mesopush_plan::plan_is_feasible(&mut s, &plan).unwrap());
+    let r = mesopush_sim::replay(&mut s, &plan, None).unwrap();
+    assert!(r.inserted && r.overload.is_none(), "{:?}", r.final_pose);
+    // It starts with the press before the first push: down past the peg, then up.
+    assert!(plan.moves_um[0][1] > 700.0 && plan.moves_um[2][1] < -100.0, "{:?}", plan.moves_um);
+}
