@@ -167,10 +167,15 @@ pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
     let mut rt = rt;
     rt.refused.extend(ctrl_rt.refused.into_iter().map(|r| format!("bench controller: {r}")));
     let mut r = report(opts, &config, &ctrl.arrivals, &stats, rt)?;
+    // In words (the JSON is read by people): "done", "aborted", "faulted: <the fault>".
     r.trial_end = match end {
-        ExecToHost::Trial(t) if t.kind == TrialEventKind::Done => "done".into(),
-        ExecToHost::Trial(t) => format!("{:?}", t.kind),
-        other => format!("{other:?}"),
+        ExecToHost::Trial(t) => match t.kind {
+            TrialEventKind::Done => "done".into(),
+            TrialEventKind::Started => "started, never ended".into(),
+            TrialEventKind::Aborted => "aborted".into(),
+            TrialEventKind::Faulted(f) => format!("faulted: {f}"),
+        },
+        _ => "ended without a trial event".into(),
     };
     Ok(r)
 }

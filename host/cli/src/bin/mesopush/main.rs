@@ -47,7 +47,7 @@ enum Command {
     Plan(cmd_plan::PlanArgs),
     /// Monte Carlo success probability of plans under start-pose, support and friction error.
     Robustness(cmd_robustness::RobustnessArgs),
-    /// Track the peg and the probe tip in a folder of PNG frames; writes pose.csv.
+    /// Track the peg and the probe tip in a frame store (frames.tif) or a folder of PNG frames; writes pose.csv.
     Track(cmd_track::TrackArgs),
     Replay(cmd_replay::ReplayArgs),
     /// Identify probe friction and supports from unconstrained pushing trials (Table I).
