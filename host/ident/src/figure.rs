@@ -7,6 +7,8 @@ use crate::Error;
 use crate::IdentTrial;
 use crate::score::{Candidate, Score, ScoreSettings, pose_at, simulate};
 use mesopush_core::geom::Pose;
+use mesopush_plot::fixture_view::equal_aspect;
+use mesopush_plot::legend_band::{Entry, Mark, band_px, draw_legend};
 use mesopush_plot::{DrawResult, Figure, save};
 use mesopush_sim::{Part, ProbePoint};
 use plotters::coord::Shift;
@@ -82,7 +84,7 @@ pub struct TrackPanel<'a> {
 
 /// Draws the panels side by side to `path` (`.png` or `.svg`).
 pub fn draw_tracks(panels: &[TrackPanel<'_>], path: &Path) -> Result<(), Error> {
-    let size = (720 * panels.len().max(1) as u32, 800);
+    let size = (720 * panels.len().max(1) as u32, 800 + band_px(LEGEND.len()));
     Ok(save(&Tracks { panels }, path, size)?)
 }
 
@@ -90,13 +92,27 @@ struct Tracks<'a> {
     panels: &'a [TrackPanel<'a>],
 }
 
+/// The legend, in a band under the panels (never over the data): what each mark is (the
+/// outlines are at the start, the middle and the end; the simulation at the tracked times).
+const LEGEND: [(Mark, &str); 5] = [
+    (Mark::Line(RGBAColor(0, 0, 0, 0.5), 1), "pusher (reference point)"),
+    (Mark::Line(RGBAColor(0, 0, 255, 1.0), 2), "tracked: outlines, centre path"),
+    (Mark::Line(RGBAColor(255, 0, 0, 1.0), 1), "simulated: outlines, centre path"),
+    (Mark::Dot(RGBAColor(0, 0, 255, 1.0)), "tracked θ"),
+    (Mark::Line(RGBAColor(255, 0, 0, 1.0), 2), "simulated θ"),
+];
+
 impl Figure for Tracks<'_> {
     fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult
     where
         DB::ErrorType: 'static,
     {
         area.fill(&WHITE)?;
-        let cells = area.split_evenly((1, self.panels.len().max(1)));
+        let (_, h) = area.dim_in_pixel();
+        let (panels, band) = area.split_vertically(h.saturating_sub(band_px(LEGEND.len())));
+        let legend: Vec<Entry> = LEGEND.iter().map(|(m, t)| Entry::new(*m, *t)).collect();
+        draw_legend(&band, &legend)?;
+        let cells = panels.split_evenly((1, self.panels.len().max(1)));
         for (panel, cell) in self.panels.iter().zip(cells) {
             let Some(sim) = panel.sim.as_ref().filter(|s| s.len() == panel.measured.len()) else {
                 continue;
@@ -134,26 +150,25 @@ where
     for (x, y) in &pts {
         (x0, x1, y0, y1) = (x0.min(*x), x1.max(*x), y0.min(*y), y1.max(*y));
     }
-    // Equal aspect (µm per pixel the same along x and y, the plotting area being the cell
-    // less its caption, labels and margins), with a margin of 5 % of the part's size.
-    let (w_px, h_px) = area.dim_in_pixel();
-    let aspect =
-        f64::from(w_px.saturating_sub(90).max(1)) / f64::from(h_px.saturating_sub(70).max(1));
-    let half_y = (0.5 * (x1 - x0) / aspect).max(0.5 * (y1 - y0)) + 0.05 * p.part.char_length_um();
-    let half_x = half_y * aspect;
-    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    let mut chart = ChartBuilder::on(area)
-        .caption(&p.title, ("sans-serif", 13))
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(70)
-        .build_cartesian_2d(cx - half_x..cx + half_x, cy + half_y..cy - half_y)?;
+    // Equal aspect: µm per pixel the same along x and y over the plotting area (the cell
+    // less its caption, margins and label areas), the data with a margin of 5 % of the part.
+    let body = area.titled(&p.title, ("sans-serif", 13))?;
+    let (margin, x_label, y_label) = (10u32, 30u32, 70u32);
+    let (w_px, h_px) = body.dim_in_pixel();
+    let plot_px = (
+        f64::from(w_px.saturating_sub(2 * margin + y_label).max(1)),
+        f64::from(h_px.saturating_sub(2 * margin + x_label).max(1)),
+    );
+    let pad = 0.05 * p.part.char_length_um();
+    let (vx0, vx1, vy0, vy1) = equal_aspect((x0 - pad, x1 + pad, y0 - pad, y1 + pad), plot_px);
+    let mut chart = ChartBuilder::on(&body)
+        .margin(margin)
+        .x_label_area_size(x_label)
+        .y_label_area_size(y_label)
+        .build_cartesian_2d(vx0..vx1, vy1..vy0)?;
     chart.configure_mesh().x_desc("x [µm]").y_desc("y [µm] (down)").disable_mesh().draw()?;
     let probe: Vec<(f64, f64)> = p.path.iter().map(|q| (q.probe_um.x, q.probe_um.y)).collect();
-    chart
-        .draw_series(std::iter::once(PathElement::new(probe, BLACK.mix(0.5).stroke_width(1))))?
-        .label("pusher (reference point)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], BLACK.mix(0.5)));
+    chart.draw_series(std::iter::once(PathElement::new(probe, BLACK.mix(0.5).stroke_width(1))))?;
     let n = meas.len() - 1;
     for k in [0, n / 2, n] {
         chart.draw_series(std::iter::once(PathElement::new(
@@ -166,21 +181,9 @@ where
         )))?;
     }
     let mpath: Vec<(f64, f64)> = meas.iter().map(|q| (q.x_um, q.y_um)).collect();
-    chart
-        .draw_series(std::iter::once(PathElement::new(mpath, BLUE.stroke_width(2))))?
-        .label("tracked")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], BLUE.stroke_width(2)));
+    chart.draw_series(std::iter::once(PathElement::new(mpath, BLUE.stroke_width(2))))?;
     let spath: Vec<(f64, f64)> = sim.iter().map(|q| (q.1.x_um, q.1.y_um)).collect();
-    chart
-        .draw_series(std::iter::once(PathElement::new(spath, RED.stroke_width(1))))?
-        .label("simulated")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()?;
+    chart.draw_series(std::iter::once(PathElement::new(spath, RED.stroke_width(1))))?;
     Ok(())
 }
 
@@ -206,14 +209,7 @@ where
         .y_label_area_size(50)
         .build_cartesian_2d(t0..t1, lo - pad..hi + pad)?;
     chart.configure_mesh().x_desc("t [s]").y_desc("θ [deg]").draw()?;
-    chart
-        .draw_series(meas.iter().map(|v| Circle::new(*v, 2, BLUE.filled())))?
-        .label("tracked θ")
-        .legend(|(x, y)| Circle::new((x + 7, y), 3, BLUE.filled()));
-    chart
-        .draw_series(std::iter::once(PathElement::new(simd, RED.stroke_width(2))))?
-        .label("simulated θ")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], RED.stroke_width(2)));
-    chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.8)).draw()?;
+    chart.draw_series(meas.iter().map(|v| Circle::new(*v, 2, BLUE.filled())))?;
+    chart.draw_series(std::iter::once(PathElement::new(simd, RED.stroke_width(2))))?;
     Ok(())
 }

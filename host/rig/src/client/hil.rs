@@ -10,6 +10,7 @@ use super::session::{HostSession, SessionEnd, SessionGoal, plan_start, plan_step
 use crate::Error;
 use mesopush_core::geom::Vec2;
 use mesopush_core::stats::percentile_i64;
+use mesopush_framestore::STORE_FILE;
 use mesopush_protocol::host::{
     CommandRejectReason, ExecToHost, ProbeTelemetry, StagePoint, TrialEvent, TrialEventKind,
 };
@@ -303,7 +304,10 @@ pub fn wait_for_recording(dir: &Path) -> Result<PathBuf, Error> {
 }
 
 /// Copies a recording (flat files, among them the frame store, and the `frames/` PNGs of
-/// older recordings) into `out`, which must not hold a trial.
+/// older recordings) into `out`, which must not hold a trial. The frame images — hundreds of
+/// MB, never written again once recorded (thinning them writes a new store and renames it,
+/// or unlinks) — are hard-linked where the file system allows, so `out` costs no second copy;
+/// every other file is copied (completing the trial appends to some of them).
 fn copy_dir(from: &Path, out: &Path) -> Result<PathBuf, Error> {
     if out.join("trial.json").exists() || out.join("frames.csv").exists() {
         let msg = format!("{} already holds a trial; refusing to overwrite it", out.display());
@@ -319,7 +323,10 @@ fn copy_dir(from: &Path, out: &Path) -> Result<PathBuf, Error> {
             let p = entry.map_err(|e| Error::io(&src, e))?.path();
             if p.is_file() {
                 let to = dst.join(p.file_name().unwrap_or_default());
-                std::fs::copy(&p, &to).map_err(|e| Error::io(&to, e))?;
+                let image = sub == "frames" || p.file_name().is_some_and(|n| n == STORE_FILE);
+                if !(image && std::fs::hard_link(&p, &to).is_ok()) {
+                    std::fs::copy(&p, &to).map_err(|e| Error::io(&to, e))?;
+                }
             }
         }
     }
@@ -359,4 +366,34 @@ pub fn truth_figures(dir: &Path, truth_path: &Path) -> Result<TruthFigures, Erro
         arrival_latency_us_max: arrival.iter().copied().max().unwrap_or(0),
         track_error_um_max: track,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::MetadataExt;
+
+    /// `run --out` copied the whole recording, frame store included (≈ 400 MB per trial a
+    /// second time): the images are linked, the files completing the trial appends to are not.
+    #[test]
+    fn the_copy_links_the_frame_images_and_copies_the_files_that_change() {
+        let dir = tempfile::tempdir().unwrap();
+        let (from, out) = (dir.path().join("rec"), dir.path().join("out"));
+        std::fs::create_dir_all(from.join("frames")).unwrap();
+        std::fs::write(from.join(STORE_FILE), b"pages").unwrap();
+        std::fs::write(from.join("frames").join("000001.png"), b"png").unwrap();
+        std::fs::write(from.join("events.csv"), b"t_us,kind,detail\n").unwrap();
+        copy_dir(&from, &out).unwrap();
+        let nlink = |p: &Path| std::fs::metadata(p).unwrap().nlink();
+        assert_eq!(nlink(&out.join(STORE_FILE)), 2, "the store is linked, not copied");
+        assert_eq!(nlink(&out.join("frames").join("000001.png")), 2);
+        assert_eq!(nlink(&out.join("events.csv")), 1, "events.csv is copied");
+        let mut f = std::fs::OpenOptions::new().append(true).open(out.join("events.csv")).unwrap();
+        std::io::Write::write_all(&mut f, b"1,verdict,inserted\n").unwrap();
+        let original = std::fs::read_to_string(from.join("events.csv")).unwrap();
+        assert_eq!(original, "t_us,kind,detail\n", "appending to the copy left the recording");
+        // A second copy into a directory that holds a trial is refused.
+        std::fs::write(out.join("trial.json"), b"{}").unwrap();
+        assert!(copy_dir(&from, &out).is_err());
+    }
 }
