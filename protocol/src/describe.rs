@@ -312,6 +312,25 @@ impl fmt::Display for MotionEventKind {
     }
 }
 
+impl fmt::Display for crate::camera::CameraHeaderError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use crate::camera::{CAMERA_FORMAT_VERSION, CAMERA_MAX_PIXELS, CameraHeaderError as E};
+        match self {
+            E::BadMagic => write!(f, "not a camera frame (the header does not start with MPCF)"),
+            E::UnsupportedVersion { got } => write!(
+                f,
+                "camera frame format version {got}; this build reads version \
+                 {CAMERA_FORMAT_VERSION}: update the camera source or the executor"
+            ),
+            E::TooLarge { width_px, height_px } => write!(
+                f,
+                "a {width_px} × {height_px} px frame is larger than the {CAMERA_MAX_PIXELS} pixels \
+                 allowed"
+            ),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;

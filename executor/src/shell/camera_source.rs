@@ -164,7 +164,7 @@ impl Reader {
             return Ok(None);
         }
         let h = CameraFrameHeader::decode(&head).map_err(|e| {
-            io::Error::new(ErrorKind::InvalidData, format!("camera frame header: {e:?}"))
+            io::Error::new(ErrorKind::InvalidData, format!("camera frame header: {e}"))
         })?;
         let mut pixels = std::vec![0u8; h.pixel_len()];
         if !self.fill(&mut pixels)? {

@@ -101,7 +101,13 @@ impl Fixture {
         if !ok {
             return Err(Error::invalid(
                 "fixture",
-                format!("paper fixture dimensions out of range: {p:?}"),
+                format!(
+                    "paper fixture dimensions out of range: x_step_um = {}, wide_top_um = {}, \
+                     narrow_top_um = {}, chamfer_um = {}; allowed: x_step_um inside the camera \
+                     field, wide_top_um ≥ 0, chamfer_um 0..=300, the narrow channel inside the \
+                     wide one",
+                    p.x_step_um, p.wide_top_um, p.narrow_top_um, p.chamfer_um
+                ),
             ));
         }
         let mut walls = Vec::new();

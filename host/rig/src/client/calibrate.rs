@@ -138,7 +138,7 @@ fn run_moves(
         SessionEnd::Trial(TrialEventKind::Aborted) => Some("the moves were aborted".into()),
         SessionEnd::Rejected(r) => Some(format!("the executor refused the moves: {r}")),
         SessionEnd::Refused(r) => Some(format!("the executor refused the moves: {r}")),
-        other => Some(format!("unexpected end {other:?}")),
+        other => Some(format!("unexpected end: {other}")),
     };
     if let Some(why) = why {
         return Err(Error::invalid("calibrate", why));

@@ -36,7 +36,7 @@ pub fn flash(addr: &str, plan: &Plan) -> Result<u32, Error> {
         SessionEnd::Accepted { step_count } => Ok(step_count),
         SessionEnd::Refused(why) => Err(Error::invalid("flash", why)),
         SessionEnd::Rejected(r) => Err(Error::invalid("flash", r.to_string())),
-        other => Err(Error::invalid("flash", format!("unexpected answer {other:?}"))),
+        other => Err(Error::invalid("flash", format!("unexpected answer: {other}"))),
     }
 }
 
@@ -251,7 +251,7 @@ fn end_state(end: SessionEnd, o: &RunOptions) -> Result<(TrialState, Option<Stri
             return Err(Error::invalid("run", hint));
         }
         SessionEnd::Rejected(r) => return Err(Error::invalid("run", r.to_string())),
-        other => return Err(Error::invalid("run", format!("unexpected end {other:?}"))),
+        other => return Err(Error::invalid("run", format!("unexpected end: {other}"))),
     })
 }
 

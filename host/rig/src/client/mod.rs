@@ -26,4 +26,5 @@ pub mod hostlink;
 pub mod rig;
 pub mod schedule;
 pub mod session;
+mod session_words;
 pub mod tracking;

@@ -57,14 +57,14 @@ fn command(addr: &str, command: RigCommand, timeout: Duration) -> Result<Session
 fn expect_status(end: SessionEnd) -> Result<ExecStatus, Error> {
     match end {
         SessionEnd::Status(s) => Ok(s),
-        other => Err(Error::invalid("rig", format!("unexpected answer {other:?}"))),
+        other => Err(Error::invalid("rig", format!("unexpected answer: {other}"))),
     }
 }
 
 fn expect_motion(end: SessionEnd) -> Result<MotionEventKind, Error> {
     match end {
         SessionEnd::Motion(m) => Ok(m),
-        other => Err(Error::invalid("rig", format!("unexpected answer {other:?}"))),
+        other => Err(Error::invalid("rig", format!("unexpected answer: {other}"))),
     }
 }
 
