@@ -103,8 +103,14 @@ pub fn final_poses(
 ) -> Result<(), Error> {
     let draw = || -> DrawResult {
         mesopush_plot::font::register()?;
-        // Walls, field, goal and one entry per verdict at most.
-        let entries = 3 + TrialVerdict::ALL.len();
+        // Walls, field, goal and one entry per verdict with a final pose.
+        let present = TrialVerdict::ALL
+            .iter()
+            .filter(|v| {
+                finals.iter().any(|a| a.result.verdict == **v && a.result.final_pose.is_some())
+            })
+            .count();
+        let entries = 2 + usize::from(goal.is_some()) + present;
         let area = BitMapBackend::new(path, figure_px(entries)).into_drawing_area();
         let (top, band) = split_legend(&area, entries)?;
         let title = "Final peg positions (centre of mass) by verdict";
