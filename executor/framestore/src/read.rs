@@ -132,7 +132,13 @@ impl FrameStore {
         self.decoder.seek_to_image(page).map_err(|e| self.bad(page, e.to_string()))?;
         let colour = self.decoder.colortype().map_err(|e| self.bad(page, e.to_string()))?;
         if colour != ColorType::Gray(8) {
-            return Err(self.bad(page, format!("{colour:?} pixels; the store holds 8-bit grey")));
+            let got = match colour {
+                ColorType::Gray(bits) => format!("{bits}-bit grey"),
+                ColorType::RGB(bits) => format!("{bits}-bit RGB colour"),
+                ColorType::RGBA(bits) => format!("{bits}-bit RGBA colour"),
+                _ => "another pixel format".to_string(),
+            };
+            return Err(self.bad(page, format!("{got} pixels; the store holds 8-bit grey")));
         }
         let (width, height) =
             self.decoder.dimensions().map_err(|e| self.bad(page, e.to_string()))?;

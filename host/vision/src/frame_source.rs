@@ -100,12 +100,30 @@ fn read_page(store: &mut FrameStore, page: usize) -> Result<GrayImage, Error> {
         .ok_or_else(|| Error::Parse { path, message: format!("page {page}: size mismatch") })
 }
 
+/// An image's pixel format in words ("16-bit grey", "8-bit RGB", ...), for messages.
+pub fn describe_pixels(c: image::ColorType) -> &'static str {
+    use image::ColorType as C;
+    match c {
+        C::L8 => "8-bit grey",
+        C::La8 => "8-bit grey with alpha",
+        C::Rgb8 => "8-bit RGB colour",
+        C::Rgba8 => "8-bit RGBA colour",
+        C::L16 => "16-bit grey",
+        C::La16 => "16-bit grey with alpha",
+        C::Rgb16 => "16-bit RGB colour",
+        C::Rgba16 => "16-bit RGBA colour",
+        C::Rgb32F | C::Rgba32F => "32-bit floating-point colour",
+        _ => "another pixel format",
+    }
+}
+
 /// An 8-bit grey PNG (anything else is refused, naming the file and what it holds).
 pub fn load_gray_png(path: &Path) -> Result<GrayImage, Error> {
     let img = image::open(path)
         .map_err(|e| Error::Parse { path: path.to_path_buf(), message: e.to_string() })?;
     if !matches!(img, image::DynamicImage::ImageLuma8(_)) {
-        let message = format!("expected an 8-bit grayscale image, got {:?}", img.color());
+        let got = describe_pixels(img.color());
+        let message = format!("expected an 8-bit grayscale image, got {got}");
         return Err(Error::Parse { path: path.to_path_buf(), message });
     }
     Ok(img.into_luma8())

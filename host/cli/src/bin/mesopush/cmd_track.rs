@@ -108,7 +108,8 @@ fn settings(args: &TrackArgs, width: u32, height: u32) -> anyhow::Result<TrackSe
 fn load_gray(path: &std::path::Path) -> anyhow::Result<image::GrayImage> {
     let img = image::open(path).with_context(|| format!("reading {}", path.display()))?;
     if !matches!(img, image::DynamicImage::ImageLuma8(_)) {
-        bail!("{}: expected an 8-bit grayscale PNG, got {:?}", path.display(), img.color());
+        let got = mesopush_vision::frame_source::describe_pixels(img.color());
+        bail!("{}: expected an 8-bit grayscale PNG, got {got}", path.display());
     }
     Ok(img.into_luma8())
 }
