@@ -35,6 +35,9 @@ pub struct RtApplied {
     pub memory_locked: bool,
     /// One message per refused step.
     pub refused: Vec<String>,
+    /// What was granted but may still not hold, in words (the kernel's real-time bandwidth
+    /// limit, [`rt_bandwidth_warning`]).
+    pub warnings: Vec<String>,
 }
 
 /// Applies `opts` to the calling thread (and memory to the process).
@@ -58,7 +61,27 @@ pub fn apply(opts: &RtOptions) -> RtApplied {
             Err(e) => applied.refused.push(describe(&e)),
         }
     }
+    if applied.fifo_priority.is_some() {
+        let limit = std::fs::read_to_string("/proc/sys/kernel/sched_rt_runtime_us");
+        applied.warnings.extend(limit.ok().and_then(|t| rt_bandwidth_warning(&t)));
+    }
     applied
+}
+
+/// The warning for the kernel's real-time bandwidth limit `sched_rt_runtime_us` (its file's
+/// text), or `None` when the limit is off (`-1`) or unreadable. With the limit on, the
+/// bench's FIFO loop stalled 68–132 ms in 3 of 8 runs at 1 kHz under a hog, and in none of 5
+/// with it off (docs/executor.md): a trial should run with it off.
+pub fn rt_bandwidth_warning(sched_rt_runtime_us: &str) -> Option<String> {
+    let us: i64 = sched_rt_runtime_us.trim().parse().ok()?;
+    (us >= 0).then(|| {
+        format!(
+            "the kernel limits real-time threads to {us} µs of each second \
+             (kernel.sched_rt_runtime_us); with the limit on, the loop has stalled for \
+             70-130 ms (docs/executor.md): for a trial, run `sysctl \
+             kernel.sched_rt_runtime_us=-1` (and restore it after)"
+        )
+    })
 }
 
 /// A refusal in words, with the OS's own text for its error codes.
@@ -143,5 +166,14 @@ mod tests {
         assert_eq!(a.refused.len(), 2, "{:?}", a.refused);
         assert!(a.refused[0].contains("CPU 100000"), "{:?}", a.refused);
         assert!(a.refused[1].contains("1..=99"), "{:?}", a.refused);
+        assert!(a.warnings.is_empty(), "no FIFO priority granted, nothing to warn of");
+    }
+
+    #[test]
+    fn the_kernels_real_time_limit_is_warned_of_only_when_it_is_on() {
+        let w = rt_bandwidth_warning("950000\n").expect("the default limit is on");
+        assert!(w.contains("950000") && w.contains("sched_rt_runtime_us=-1"), "{w}");
+        assert_eq!(rt_bandwidth_warning("-1\n"), None);
+        assert_eq!(rt_bandwidth_warning("not a number"), None);
     }
 }
