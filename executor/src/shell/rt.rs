@@ -70,88 +70,18 @@ pub fn apply(opts: &RtOptions) -> RtApplied {
 
 /// The warning for the kernel's real-time bandwidth limit `sched_rt_runtime_us` (its file's
 /// text), or `None` when the limit is off (`-1`) or unreadable. With the limit on, the
-/// bench's FIFO loop stalled 68–132 ms in 3 of 8 runs at 1 kHz under a hog, and in none of 5
-/// with it off (docs/executor.md): a trial should run with it off.
+/// bench's FIFO loop stalled 58–132 ms, ending the trial, in 5 of 12 runs at 1 kHz under a
+/// hog; with it off in 1 of 9 (docs/executor.md): off is better, not a cure.
 pub fn rt_bandwidth_warning(sched_rt_runtime_us: &str) -> Option<String> {
     let us: i64 = sched_rt_runtime_us.trim().parse().ok()?;
     (us >= 0).then(|| {
         format!(
             "the kernel limits real-time threads to {us} µs of each second \
-             (kernel.sched_rt_runtime_us); with the limit on, the loop has stalled for \
-             70-130 ms (docs/executor.md): for a trial, run `sysctl \
+             (kernel.sched_rt_runtime_us); with the limit on, the loop stalled for 58-132 ms \
+             more often (docs/executor.md): for a trial, consider `sysctl \
              kernel.sched_rt_runtime_us=-1` (and restore it after)"
         )
     })
-}
-
-/// A refusal in words, with the OS's own text for its error codes.
-pub fn describe(e: &ExecError) -> String {
-    match e {
-        ExecError::RealTime { step, cause: RtCause::Os(errno) } => {
-            format!("{step}: {}", std::io::Error::from_raw_os_error(*errno))
-        }
-        other => other.to_string(),
-    }
-}
-
-fn refused(step: RtStep, cause: RtCause) -> ExecError {
-    ExecError::RealTime { step, cause }
-}
-
-#[cfg(target_os = "linux")]
-fn last_os_error(step: RtStep) -> ExecError {
-    refused(step, RtCause::Os(std::io::Error::last_os_error().raw_os_error().unwrap_or(0)))
-}
-
-#[cfg(target_os = "linux")]
-fn lock_memory() -> Result<(), ExecError> {
-    // SAFETY: plain system call without pointers.
-    let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
-    if rc == 0 { Ok(()) } else { Err(last_os_error(RtStep::LockMemory)) }
-}
-
-/// Pins the calling thread to `cpu`.
-#[cfg(target_os = "linux")]
-pub fn pin_current_thread(cpu: usize) -> Result<(), ExecError> {
-    if cpu >= libc::CPU_SETSIZE as usize {
-        return Err(refused(RtStep::PinCpu { cpu }, RtCause::OutOfRange { allowed: "0..1024" }));
-    }
-    // SAFETY: `set` is a plain bit set initialised by CPU_ZERO; pid 0 is the calling thread.
-    let rc = unsafe {
-        let mut set: libc::cpu_set_t = std::mem::zeroed();
-        libc::CPU_ZERO(&mut set);
-        libc::CPU_SET(cpu, &mut set);
-        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
-    };
-    if rc == 0 { Ok(()) } else { Err(last_os_error(RtStep::PinCpu { cpu })) }
-}
-
-#[cfg(target_os = "linux")]
-fn set_fifo_priority(prio: i32) -> Result<(), ExecError> {
-    let step = RtStep::FifoPriority { priority: prio };
-    if !(1..=99).contains(&prio) {
-        return Err(refused(step, RtCause::OutOfRange { allowed: "1..=99" }));
-    }
-    let param = libc::sched_param { sched_priority: prio };
-    // SAFETY: `param` outlives the call; pthread_self is the calling thread.
-    let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
-    if rc == 0 { Ok(()) } else { Err(refused(step, RtCause::Os(rc))) }
-}
-
-#[cfg(not(target_os = "linux"))]
-fn lock_memory() -> Result<(), ExecError> {
-    Err(refused(RtStep::LockMemory, RtCause::Unsupported))
-}
-
-/// Pins the calling thread to `cpu` (Linux only).
-#[cfg(not(target_os = "linux"))]
-pub fn pin_current_thread(cpu: usize) -> Result<(), ExecError> {
-    Err(refused(RtStep::PinCpu { cpu }, RtCause::Unsupported))
-}
-
-#[cfg(not(target_os = "linux"))]
-fn set_fifo_priority(priority: i32) -> Result<(), ExecError> {
-    Err(refused(RtStep::FifoPriority { priority }, RtCause::Unsupported))
 }
 
 #[cfg(test)]
