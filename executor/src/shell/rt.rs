@@ -84,6 +84,76 @@ pub fn rt_bandwidth_warning(sched_rt_runtime_us: &str) -> Option<String> {
     })
 }
 
+/// A refusal in words, with the OS's own text for its error codes.
+pub fn describe(e: &ExecError) -> String {
+    match e {
+        ExecError::RealTime { step, cause: RtCause::Os(errno) } => {
+            format!("{step}: {}", std::io::Error::from_raw_os_error(*errno))
+        }
+        other => other.to_string(),
+    }
+}
+
+fn refused(step: RtStep, cause: RtCause) -> ExecError {
+    ExecError::RealTime { step, cause }
+}
+
+#[cfg(target_os = "linux")]
+fn last_os_error(step: RtStep) -> ExecError {
+    refused(step, RtCause::Os(std::io::Error::last_os_error().raw_os_error().unwrap_or(0)))
+}
+
+#[cfg(target_os = "linux")]
+fn lock_memory() -> Result<(), ExecError> {
+    // SAFETY: plain system call without pointers.
+    let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+    if rc == 0 { Ok(()) } else { Err(last_os_error(RtStep::LockMemory)) }
+}
+
+/// Pins the calling thread to `cpu`.
+#[cfg(target_os = "linux")]
+pub fn pin_current_thread(cpu: usize) -> Result<(), ExecError> {
+    if cpu >= libc::CPU_SETSIZE as usize {
+        return Err(refused(RtStep::PinCpu { cpu }, RtCause::OutOfRange { allowed: "0..1024" }));
+    }
+    // SAFETY: `set` is a plain bit set initialised by CPU_ZERO; pid 0 is the calling thread.
+    let rc = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_ZERO(&mut set);
+        libc::CPU_SET(cpu, &mut set);
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+    };
+    if rc == 0 { Ok(()) } else { Err(last_os_error(RtStep::PinCpu { cpu })) }
+}
+
+#[cfg(target_os = "linux")]
+fn set_fifo_priority(prio: i32) -> Result<(), ExecError> {
+    let step = RtStep::FifoPriority { priority: prio };
+    if !(1..=99).contains(&prio) {
+        return Err(refused(step, RtCause::OutOfRange { allowed: "1..=99" }));
+    }
+    let param = libc::sched_param { sched_priority: prio };
+    // SAFETY: `param` outlives the call; pthread_self is the calling thread.
+    let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+    if rc == 0 { Ok(()) } else { Err(refused(step, RtCause::Os(rc))) }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn lock_memory() -> Result<(), ExecError> {
+    Err(refused(RtStep::LockMemory, RtCause::Unsupported))
+}
+
+/// Pins the calling thread to `cpu` (Linux only).
+#[cfg(not(target_os = "linux"))]
+pub fn pin_current_thread(cpu: usize) -> Result<(), ExecError> {
+    Err(refused(RtStep::PinCpu { cpu }, RtCause::Unsupported))
+}
+
+#[cfg(not(target_os = "linux"))]
+fn set_fifo_priority(priority: i32) -> Result<(), ExecError> {
+    Err(refused(RtStep::FifoPriority { priority }, RtCause::Unsupported))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
