@@ -43,7 +43,13 @@ fn hil_trial(d: &Path, plan: &Path, run_timeout: Duration) -> (serde_json::Value
     let run = rig.run(plan, &out, run_timeout);
     let text = String::from_utf8_lossy(&run.stdout);
     let code = run.status.code().unwrap_or(-1);
-    assert!(code == 0 || code == 1, "run: {text} {}", String::from_utf8_lossy(&run.stderr));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(code == 0 || code == 1, "run: {text} {err}");
+    // Off a terminal (as here) `run` says each phase once on stderr instead of a spinner: a
+    // log shows what a silent minute was spent on.
+    for phase in ["connecting to the executor", "running the trial", "tracking the frames"] {
+        assert_eq!(err.matches(phase).count(), 1, "{phase}: {err}");
+    }
     (serde_json::from_str(&text).unwrap(), code, out)
 }
 

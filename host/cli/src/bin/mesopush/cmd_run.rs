@@ -130,8 +130,9 @@ pub(crate) fn load_calibration(path: &Path) -> anyhow::Result<mesopush_vision::C
     Ok(file.checked_calibration()?)
 }
 
-/// A spinner on stderr (so `--json` keeps stdout clean; hidden when stderr is no terminal)
-/// saying what the run waits for: up to a minute and more would otherwise pass in silence.
+/// A spinner on stderr (so `--json` keeps stdout clean; when stderr is no terminal, one line
+/// per phase instead) saying what the run waits for: up to a minute and more would otherwise
+/// pass in silence.
 pub(crate) fn phase_bar() -> ProgressBar {
     let bar = ProgressBar::new_spinner();
     if let Ok(style) = ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}") {
@@ -152,6 +153,12 @@ pub(crate) fn show_phase(bar: &ProgressBar, phase: RunPhase) {
         RunPhase::Completing => "tracking the frames and writing the trial log".into(),
         _ => return,
     };
+    // Off a terminal the spinner is hidden: a log (a batch job, a CI run) gets one line per
+    // phase instead (not one per progress update).
+    let kind = |m: &str| m.split(':').next().unwrap_or_default().to_string();
+    if bar.is_hidden() && kind(&bar.message()) != kind(&msg) {
+        eprintln!("mesopush run: {msg}");
+    }
     bar.set_message(msg);
 }
 
