@@ -140,7 +140,10 @@ fn files_that_are_not_stores_are_refused_naming_the_problem() {
     let desc = PageMeta { index: 0, t_capture_us: Some(0) }.describe();
     img.encoder().write_tag(tiff::tags::Tag::ImageDescription, desc.as_str()).unwrap();
     img.write_data(&[0; 12]).unwrap();
-    assert!(refused(rgb.get_ref()).contains("page 0: 8-bit RGB colour pixels; the store holds 8-bit grey"));
+    assert!(
+        refused(rgb.get_ref())
+            .contains("page 0: 8-bit RGB colour pixels; the store holds 8-bit grey")
+    );
     // a store whose first page's data is cut away
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join(STORE_FILE);
