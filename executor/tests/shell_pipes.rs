@@ -6,6 +6,7 @@ use crossbeam_channel::bounded;
 use mesopush_executor::clock::MonotonicClock;
 use mesopush_executor::endpoint::Endpoint;
 use mesopush_executor::shell::port::{ByteRead, ByteWrite, pipe};
+use mesopush_executor::shell::rt_queue;
 use mesopush_executor::shell::runner::ShellEnd;
 use mesopush_executor::shell::{Shell, ShellStats};
 use mesopush_executor::{Executor, ExecutorConfig, MemStore};
@@ -27,7 +28,7 @@ fn answers_the_host_then_stops_on_request_or_when_a_line_closes() {
     let (ctrl_w_test, exec_ctrl_r) = pipe(64);
     let (exec_ctrl_w, mut from_exec_ctrl) = pipe(64);
     let (log_tx, log_rx) = bounded(1024);
-    let (stop_tx, stop_rx) = bounded(1);
+    let (stop_tx, stop_rx) = rt_queue::bounded(1);
     let runner = std::thread::spawn(move || {
         let mut ep = endpoint();
         let mut stats = ShellStats::default();
@@ -73,7 +74,7 @@ fn answers_the_host_then_stops_on_request_or_when_a_line_closes() {
     let (exec_ctrl_w, _from_ctrl) = pipe(8);
     drop(ctrl_w);
     let (log_tx, _log_rx) = bounded(16);
-    let (_stop_tx, stop_rx) = bounded::<()>(1);
+    let (_stop_tx, stop_rx) = rt_queue::bounded::<()>(1);
     let mut ep = endpoint();
     let mut stats = ShellStats::default();
     let host = (exec_host_r, exec_host_w);

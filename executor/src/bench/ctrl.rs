@@ -6,7 +6,7 @@
 
 use crate::clock::{Clock, MonotonicClock};
 use crate::shell::port::Chunk;
-use crossbeam_channel::{Receiver, RecvTimeoutError, Sender};
+use crate::shell::rt_queue::{Receiver, RecvTimeoutError, Sender};
 use mesopush_protocol::ctrl::{CtrlState, CtrlStatus, CtrlToExec, MoveSegment, PositionReport};
 use mesopush_protocol::{ExecToCtrl, FRAME_BUF_LEN, FrameReader, Link, LinkConfig, encode_frame};
 use std::collections::VecDeque;

@@ -3,7 +3,7 @@
 
 use crate::clock::{Clock, MonotonicClock};
 use crate::shell::port::{CHUNK_BYTES, Chunk};
-use crossbeam_channel::{Receiver, RecvTimeoutError, Sender};
+use crate::shell::rt_queue::{Receiver, RecvTimeoutError, Sender};
 use mesopush_protocol::flash::{FlashHeader, PlanStep, image_chunks};
 use mesopush_protocol::host::{
     CommandRejectReason, ExecState, ExecToHost, Hello, HostToExec, StagePoint,

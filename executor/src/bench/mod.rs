@@ -24,6 +24,7 @@ use crate::clock::{Clock, MonotonicClock};
 use crate::endpoint::Endpoint;
 use crate::shell::port::{Chunk, PipeReader, PipeWriter};
 use crate::shell::rt::{RtApplied, RtOptions, apply, pin_current_thread};
+use crate::shell::rt_queue;
 use crate::shell::{Shell, ShellOptions, ShellStats};
 use crate::{Executor, ExecutorConfig, MemStore};
 use crossbeam_channel::bounded;
@@ -106,7 +107,7 @@ pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
     let clock = Arc::new(MonotonicClock::new());
     let stop = Arc::new(AtomicBool::new(false));
     let [(h_in_tx, h_in_rx), (h_out_tx, h_out_rx), (c_in_tx, c_in_rx), (c_out_tx, c_out_rx)] =
-        [(); 4].map(|()| bounded::<Chunk>(4096));
+        [(); 4].map(|()| rt_queue::bounded::<Chunk>(4096));
     let steps = host::bench_plan(opts.seconds);
     let expected = (opts.seconds * f64::from(opts.rate_hz)) as usize;
     let ctrl = ctrl::BenchCtrl::new(host::START_NM, expected);
@@ -131,7 +132,7 @@ pub fn run_bench(opts: BenchOptions) -> io::Result<BenchReport> {
             }
         })
     });
-    let (stop_tx, stop_rx) = bounded(1);
+    let (stop_tx, stop_rx) = rt_queue::bounded(1);
     let (log_tx, log_rx) = bounded(1 << 16);
     let give_up = clock.now_us() + ((opts.seconds + 30.0) * 1e6) as u64;
     let c3 = clock.clone();

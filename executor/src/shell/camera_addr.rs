@@ -106,7 +106,7 @@ mod tests {
     fn sinks() -> CameraSinks {
         CameraSinks {
             clock: Arc::new(MonotonicClock::new()),
-            to_loop: crossbeam_channel::bounded(1).0,
+            to_loop: crate::shell::rt_queue::bounded(1).0,
             to_recorder: None,
             counters: Arc::new(CameraCounters::default()),
             stop: Arc::new(AtomicBool::new(false)),

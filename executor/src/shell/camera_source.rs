@@ -80,8 +80,8 @@ impl core::fmt::Display for CameraEnd {
 pub struct CameraSinks {
     /// The executor's clock (driver stamps are converted into it).
     pub clock: Arc<MonotonicClock>,
-    /// Frames for the shell's loop (stamping).
-    pub to_loop: Sender<CameraFrame>,
+    /// Frames for the shell's loop (stamping), on a queue safe for a real-time reader.
+    pub to_loop: super::rt_queue::Sender<CameraFrame>,
     /// Images for the recorder (`None`: not recording).
     pub to_recorder: Option<Sender<FrameImage>>,
     /// The thread's counters.
@@ -199,7 +199,7 @@ mod tests {
         let _ = std::fs::remove_file(&path);
         let listener = UnixListener::bind(&path).unwrap();
         let clock = Arc::new(MonotonicClock::new());
-        let (ftx, frx) = crossbeam_channel::bounded(4);
+        let (ftx, frx) = crate::shell::rt_queue::bounded(4);
         let (itx, irx) = crossbeam_channel::bounded(4);
         let counters = Arc::new(CameraCounters::default());
         let stop = Arc::new(AtomicBool::new(false));

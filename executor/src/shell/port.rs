@@ -1,6 +1,6 @@
 //! Byte links for the shell: serial ports and in-memory pipes.
 
-use crossbeam_channel::{Receiver, Sender, bounded};
+use super::rt_queue::{Receiver, RecvTimeoutError, Sender, bounded};
 use std::io::{self, ErrorKind, Read, Write};
 use std::time::Duration;
 
@@ -110,8 +110,8 @@ impl ByteRead for PipeReader {
                 buf[..n].copy_from_slice(&chunk.bytes()[..n]);
                 Ok(n)
             }
-            Err(crossbeam_channel::RecvTimeoutError::Timeout) => Ok(0),
-            Err(crossbeam_channel::RecvTimeoutError::Disconnected) => {
+            Err(RecvTimeoutError::Timeout) => Ok(0),
+            Err(RecvTimeoutError::Disconnected) => {
                 Err(io::Error::new(ErrorKind::BrokenPipe, "pipe closed"))
             }
         }

@@ -2,9 +2,11 @@
 //! `SCHED_FIFO` priority, pinning to one CPU. Each step fails soft: when the OS refuses
 //! (no `CAP_SYS_NICE`, a CPU that does not exist, a memlock limit) the shell runs without it
 //! and the refusal is reported, never fatal. Threads the loop thread spawns afterwards (the
-//! line readers) inherit its policy and CPU set, as Linux threads do.
+//! line readers) inherit its policy and CPU set, as Linux threads do; a helper that must not
+//! (the log forwarder) calls [`leave_real_time`]. Threads of different scheduling classes
+//! exchange data only through [`super::rt_queue`] (its note says why).
 //!
-//! The only `unsafe` of the shell: three libc calls with no safe wrapper in our
+//! The only `unsafe` of the shell: a few libc calls with no safe wrapper in our
 //! dependencies (`rustix` has none for `pthread_setschedparam`).
 #![allow(unsafe_code)]
 
@@ -35,9 +37,6 @@ pub struct RtApplied {
     pub memory_locked: bool,
     /// One message per refused step.
     pub refused: Vec<String>,
-    /// What was granted but may still not hold, in words (the kernel's real-time bandwidth
-    /// limit, [`rt_bandwidth_warning`]).
-    pub warnings: Vec<String>,
 }
 
 /// Applies `opts` to the calling thread (and memory to the process).
@@ -61,27 +60,7 @@ pub fn apply(opts: &RtOptions) -> RtApplied {
             Err(e) => applied.refused.push(describe(&e)),
         }
     }
-    if applied.fifo_priority.is_some() {
-        let limit = std::fs::read_to_string("/proc/sys/kernel/sched_rt_runtime_us");
-        applied.warnings.extend(limit.ok().and_then(|t| rt_bandwidth_warning(&t)));
-    }
     applied
-}
-
-/// The warning for the kernel's real-time bandwidth limit `sched_rt_runtime_us` (its file's
-/// text), or `None` when the limit is off (`-1`) or unreadable. With the limit on, the
-/// bench's FIFO loop stalled 58–132 ms, ending the trial, in 5 of 12 runs at 1 kHz under a
-/// hog; with it off in 1 of 9 (docs/executor.md): off is better, not a cure.
-pub fn rt_bandwidth_warning(sched_rt_runtime_us: &str) -> Option<String> {
-    let us: i64 = sched_rt_runtime_us.trim().parse().ok()?;
-    (us >= 0).then(|| {
-        format!(
-            "the kernel limits real-time threads to {us} µs of each second \
-             (kernel.sched_rt_runtime_us); with the limit on, the loop stalled for 58-132 ms \
-             more often (docs/executor.md): for a trial, consider `sysctl \
-             kernel.sched_rt_runtime_us=-1` (and restore it after)"
-        )
-    })
 }
 
 /// A refusal in words, with the OS's own text for its error codes.
@@ -138,6 +117,29 @@ fn set_fifo_priority(prio: i32) -> Result<(), ExecError> {
     if rc == 0 { Ok(()) } else { Err(refused(step, RtCause::Os(rc))) }
 }
 
+/// Returns the calling thread to the normal scheduler and lets it run on any CPU: for the
+/// helper threads the loop spawns that must not inherit its real-time set-up (a normal
+/// thread's work must never take the loop's CPU at the loop's priority). Best effort: a
+/// refusal leaves the thread as it was.
+#[cfg(target_os = "linux")]
+pub fn leave_real_time() {
+    let param = libc::sched_param { sched_priority: 0 };
+    // SAFETY: `param` and `set` outlive the calls; pthread_self / pid 0 are the calling
+    // thread; `set` is a plain bit set (every CPU; the kernel keeps those the process may use).
+    unsafe {
+        let _ = libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_OTHER, &param);
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        for cpu in 0..libc::CPU_SETSIZE as usize {
+            libc::CPU_SET(cpu, &mut set);
+        }
+        let _ = libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set);
+    }
+}
+
+/// Nothing to undo where the set-up is not supported.
+#[cfg(not(target_os = "linux"))]
+pub fn leave_real_time() {}
+
 #[cfg(not(target_os = "linux"))]
 fn lock_memory() -> Result<(), ExecError> {
     Err(refused(RtStep::LockMemory, RtCause::Unsupported))
@@ -166,14 +168,5 @@ mod tests {
         assert_eq!(a.refused.len(), 2, "{:?}", a.refused);
         assert!(a.refused[0].contains("CPU 100000"), "{:?}", a.refused);
         assert!(a.refused[1].contains("1..=99"), "{:?}", a.refused);
-        assert!(a.warnings.is_empty(), "no FIFO priority granted, nothing to warn of");
-    }
-
-    #[test]
-    fn the_kernels_real_time_limit_is_warned_of_only_when_it_is_on() {
-        let w = rt_bandwidth_warning("950000\n").expect("the default limit is on");
-        assert!(w.contains("950000") && w.contains("sched_rt_runtime_us=-1"), "{w}");
-        assert_eq!(rt_bandwidth_warning("-1\n"), None);
-        assert_eq!(rt_bandwidth_warning("not a number"), None);
     }
 }

@@ -1,6 +1,8 @@
 //! The shell's loop: reader threads, the endpoint, writers, the recorder channel.
 
 use super::port::{ByteRead, ByteWrite, CHUNK_BYTES, Chunk};
+use super::rt;
+use super::rt_queue::{self, Bell, Receiver, Sender, TryRecvError, TrySendError};
 use super::timing::SendTiming;
 use crate::adapter::ControllerAdapter;
 use crate::camera::CameraFrame;
@@ -8,7 +10,6 @@ use crate::clock::Clock;
 use crate::endpoint::Endpoint;
 use crate::io::LogEvent;
 use crate::store::PlanStore;
-use crossbeam_channel::{Receiver, Sender, bounded, never, select};
 use mesopush_protocol::FRAME_BUF_LEN;
 use std::io;
 use std::sync::Arc;
@@ -20,6 +21,8 @@ use std::vec::Vec;
 
 /// Chunks buffered between a reader thread and the loop.
 const READ_QUEUE_CHUNKS: usize = 256;
+/// Log records buffered between the loop and the thread that hands them to the recorder.
+const LOG_QUEUE: usize = 4096;
 /// Longest wait of the loop, so a stop request is seen promptly.
 const MAX_WAIT_US: u64 = 10_000;
 
@@ -105,10 +108,29 @@ fn spawn_reader(
     })
 }
 
+/// Hands the loop's log records to the recorder's channel from a normal-priority thread, so
+/// the real-time loop never waits on the recorder's side of a lock-free channel
+/// ([`rt_queue`]'s note). Returns the records the recorder's full channel refused.
+fn spawn_log_forwarder(
+    rx: Receiver<LogEvent>,
+    log: crossbeam_channel::Sender<LogEvent>,
+) -> JoinHandle<u64> {
+    std::thread::spawn(move || {
+        rt::leave_real_time();
+        let mut refused = 0u64;
+        while let Some(e) = rx.recv() {
+            if log.try_send(e).is_err() {
+                refused += 1;
+            }
+        }
+        refused
+    })
+}
+
 impl Shell {
-    /// Runs `endpoint` on the two lines until `stop_rx` fires or a line fails; camera
-    /// frames arrive on `frames`, log records go to `log` (never blocking). Default
-    /// [`ShellOptions`].
+    /// Runs `endpoint` on the two lines until `stop_rx` fires (or its sender goes) or a line
+    /// fails; camera frames arrive on `frames`, log records go to `log` (never blocking).
+    /// Default [`ShellOptions`].
     #[allow(clippy::too_many_arguments)]
     pub fn run<
         S: PlanStore,
@@ -122,7 +144,7 @@ impl Shell {
         host: (impl ByteRead + 'static, impl ByteWrite),
         ctrl: (impl ByteRead + 'static, impl ByteWrite),
         frames: Option<Receiver<CameraFrame>>,
-        log: Sender<LogEvent>,
+        log: crossbeam_channel::Sender<LogEvent>,
         stop_rx: Receiver<()>,
         stats: &mut ShellStats,
     ) -> ShellEnd {
@@ -147,15 +169,17 @@ impl Shell {
             (impl ByteRead + 'static, impl ByteWrite),
             Option<Receiver<CameraFrame>>,
         ),
-        log: Sender<LogEvent>,
+        log: crossbeam_channel::Sender<LogEvent>,
         stop_rx: Receiver<()>,
         opts: ShellOptions,
         stats: &mut ShellStats,
     ) -> ShellEnd {
         let (host, ctrl, frames) = lines;
         let stop = Arc::new(AtomicBool::new(false));
-        let (host_tx, host_rx) = bounded(READ_QUEUE_CHUNKS);
-        let (ctrl_tx, ctrl_rx) = bounded(READ_QUEUE_CHUNKS);
+        let (host_tx, host_rx) = rt_queue::bounded(READ_QUEUE_CHUNKS);
+        let (ctrl_tx, ctrl_rx) = rt_queue::bounded(READ_QUEUE_CHUNKS);
+        let (log_tx, log_rx) = rt_queue::bounded(LOG_QUEUE);
+        let forwarder = spawn_log_forwarder(log_rx, log);
         let mut shell = Shell {
             stop: stop.clone(),
             readers: vec![
@@ -163,14 +187,12 @@ impl Shell {
                 spawn_reader(ctrl.0, ctrl_tx, stop),
             ],
         };
+        let inputs = Inputs::new(host_rx, ctrl_rx, frames, stop_rx);
         let (mut host_w, mut ctrl_w) = (host.1, ctrl.1);
-        let frames = frames.unwrap_or_else(never);
         let end = loop {
-            let ends =
-                Lines { host_rx: &host_rx, ctrl_rx: &ctrl_rx, frames: &frames, stop_rx: &stop_rx };
             let sent_before = endpoint.core().segments_sent();
             let due = endpoint.core().next_send_due_us();
-            if let Some(end) = Self::iterate(endpoint, clock, &ends, &log, opts, due, stats) {
+            if let Some(end) = Self::iterate(endpoint, clock, &inputs, &log_tx, opts, due, stats) {
                 break end;
             }
             if let Err(end) = Self::transmit(endpoint, clock.now_us(), &mut host_w, &mut ctrl_w) {
@@ -181,7 +203,13 @@ impl Shell {
                 stats.sends.record(due, clock.now_us(), sent);
             }
         };
+        // The receivers go first: a reader blocked on a full queue then returns.
+        drop(inputs);
         shell.join();
+        drop(log_tx);
+        let refused = forwarder.join().unwrap_or(0);
+        stats.logged -= refused.min(stats.logged);
+        stats.log_dropped += refused;
         end
     }
 
@@ -197,7 +225,7 @@ impl Shell {
     >(
         endpoint: &mut Endpoint<S, CAP, LA, W, A>,
         clock: &impl Clock,
-        lines: &Lines<'_>,
+        inputs: &Inputs,
         log: &Sender<LogEvent>,
         opts: ShellOptions,
         due: Option<u64>,
@@ -207,27 +235,24 @@ impl Shell {
         let deadline = endpoint.next_deadline_us();
         let waited_from_us = clock.now_us();
         let spin_us = if due.is_some_and(|d| d <= deadline) { opts.spin_us } else { 0 };
-        let wait_us = deadline.saturating_sub(spin_us).saturating_sub(clock.now_us());
-        let wait_us = wait_us.min(MAX_WAIT_US);
+        let wait_us = deadline.saturating_sub(spin_us).saturating_sub(waited_from_us);
+        let wait_until_us = waited_from_us + wait_us.min(MAX_WAIT_US);
         let mut record = |e: &LogEvent| match log.try_send(*e) {
             Ok(()) => stats.logged += 1,
-            Err(_) => stats.log_dropped += 1,
+            Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => stats.log_dropped += 1,
         };
-        let fed = select! {
-            recv(lines.host_rx) -> c => match c {
-                Ok(c) => endpoint.on_host_bytes(clock.now_us(), c.bytes(), &mut record),
-                Err(_) => return Some(ShellEnd::HostLine(io::Error::other("host reader ended"))),
-            },
-            recv(lines.ctrl_rx) -> c => match c {
-                Ok(c) => endpoint.on_ctrl_bytes(clock.now_us(), c.bytes(), &mut record),
-                Err(_) => return Some(ShellEnd::CtrlLine(io::Error::other("controller reader ended"))),
-            },
-            recv(lines.frames) -> f => match f {
-                Ok(f) => endpoint.on_frame(clock.now_us(), f, &mut record),
-                Err(_) => Ok(()),
-            },
-            recv(lines.stop_rx) -> _ => return Some(ShellEnd::Stopped),
-            default(Duration::from_micros(wait_us)) => {
+        let fed = match inputs.wait(clock, wait_until_us, stats.iterations) {
+            Some(Input::Host(c)) => endpoint.on_host_bytes(clock.now_us(), c.bytes(), &mut record),
+            Some(Input::Ctrl(c)) => endpoint.on_ctrl_bytes(clock.now_us(), c.bytes(), &mut record),
+            Some(Input::Frame(f)) => endpoint.on_frame(clock.now_us(), f, &mut record),
+            Some(Input::Stop) => return Some(ShellEnd::Stopped),
+            Some(Input::HostGone) => {
+                return Some(ShellEnd::HostLine(io::Error::other("host reader ended")));
+            }
+            Some(Input::CtrlGone) => {
+                return Some(ShellEnd::CtrlLine(io::Error::other("controller reader ended")));
+            }
+            None => {
                 spin_until(clock, deadline, spin_us);
                 Ok(())
             }
@@ -272,11 +297,84 @@ impl Shell {
     }
 }
 
-struct Lines<'a> {
-    host_rx: &'a Receiver<Chunk>,
-    ctrl_rx: &'a Receiver<Chunk>,
-    frames: &'a Receiver<CameraFrame>,
-    stop_rx: &'a Receiver<()>,
+/// One input to the loop.
+enum Input {
+    Host(Chunk),
+    Ctrl(Chunk),
+    Frame(CameraFrame),
+    Stop,
+    HostGone,
+    CtrlGone,
+}
+
+/// The loop's input queues and the bell they all ring.
+struct Inputs {
+    host_rx: Receiver<Chunk>,
+    ctrl_rx: Receiver<Chunk>,
+    frames: Option<Receiver<CameraFrame>>,
+    stop_rx: Receiver<()>,
+    bell: Arc<Bell>,
+}
+
+impl Inputs {
+    fn new(
+        host_rx: Receiver<Chunk>,
+        ctrl_rx: Receiver<Chunk>,
+        frames: Option<Receiver<CameraFrame>>,
+        stop_rx: Receiver<()>,
+    ) -> Self {
+        let bell = Bell::new();
+        host_rx.attach(&bell);
+        ctrl_rx.attach(&bell);
+        stop_rx.attach(&bell);
+        if let Some(f) = &frames {
+            f.attach(&bell);
+        }
+        Self { host_rx, ctrl_rx, frames, stop_rx, bell }
+    }
+
+    /// The next input, the stop first, then the three sources in turns starting at `turn`
+    /// (so none starves the others); `None` when nothing is queued.
+    fn next(&self, turn: u64) -> Option<Input> {
+        if !matches!(self.stop_rx.try_recv(), Err(TryRecvError::Empty)) {
+            return Some(Input::Stop);
+        }
+        for k in 0..3 {
+            let input = match (turn + k) % 3 {
+                0 => match self.host_rx.try_recv() {
+                    Ok(c) => Some(Input::Host(c)),
+                    Err(TryRecvError::Disconnected) => Some(Input::HostGone),
+                    Err(TryRecvError::Empty) => None,
+                },
+                1 => match self.ctrl_rx.try_recv() {
+                    Ok(c) => Some(Input::Ctrl(c)),
+                    Err(TryRecvError::Disconnected) => Some(Input::CtrlGone),
+                    Err(TryRecvError::Empty) => None,
+                },
+                // A camera that goes away leaves the loop running without frames.
+                _ => self.frames.as_ref().and_then(|f| f.try_recv().ok()).map(Input::Frame),
+            };
+            if input.is_some() {
+                return input;
+            }
+        }
+        None
+    }
+
+    /// The next input, waiting (asleep) until `until_us` for one.
+    fn wait(&self, clock: &impl Clock, until_us: u64, turn: u64) -> Option<Input> {
+        loop {
+            let seen = self.bell.rings();
+            if let Some(input) = self.next(turn) {
+                return Some(input);
+            }
+            let now = clock.now_us();
+            if now >= until_us {
+                return None;
+            }
+            self.bell.wait_past(seen, Duration::from_micros(until_us - now));
+        }
+    }
 }
 
 /// Busy-waits until `deadline_us`, at most `max_us` (the sleep before it woke up to then).

@@ -58,13 +58,10 @@ impl RtArgs {
     }
 }
 
-/// Prints what the OS refused of the real-time set-up, and what may not hold.
+/// Prints what the OS refused of the real-time set-up.
 pub(crate) fn warn_rt(applied: &RtApplied) {
     for r in &applied.refused {
         eprintln!("mesopush-executor: real-time set-up refused, continuing without: {r}");
-    }
-    for w in &applied.warnings {
-        eprintln!("mesopush-executor: real-time set-up: {w}");
     }
 }
 

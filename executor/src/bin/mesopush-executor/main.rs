@@ -13,7 +13,7 @@ mod sidecar;
 use anyhow::{Context, Result, bail};
 use args::{Args, BenchArgs, motion_config, next_session, open, warn_rt};
 use clap::{Parser, Subcommand};
-use crossbeam_channel::{Receiver, bounded};
+use crossbeam_channel::bounded;
 use mesopush_executor::adapter::ControllerAdapter;
 use mesopush_executor::adapter::native::NativeAdapter;
 use mesopush_executor::adapter::p2p::Protocol;
@@ -29,6 +29,7 @@ use mesopush_executor::shell::camera_source::{CameraCounters, CameraEnd};
 use mesopush_executor::shell::controller::{ControllerKind, Line as ControllerLine, open_line};
 use mesopush_executor::shell::port::{ByteRead, ByteWrite, split_tty};
 use mesopush_executor::shell::rt::apply;
+use mesopush_executor::shell::rt_queue;
 use mesopush_executor::shell::runner::ShellEnd;
 use mesopush_executor::shell::unix_line::{LineAddr, listen};
 use mesopush_executor::shell::{Shell, ShellOptions, ShellStats};
@@ -174,8 +175,8 @@ fn run_on<A: ControllerAdapter>(
 ) -> Result<()> {
     let clock = Arc::new(MonotonicClock::new());
     let (log_tx, log_rx) = bounded(4096);
-    let side = sidecar(args, &clock, log_rx)?;
-    let (stop_tx, stop_rx) = bounded(1);
+    let mut side = sidecar(args, &clock, log_rx)?;
+    let (stop_tx, stop_rx) = rt_queue::bounded(1);
     if let Some(s) = args.duration_s {
         std::thread::spawn(move || {
             std::thread::sleep(Duration::from_secs_f64(s.max(0.0)));
@@ -188,7 +189,7 @@ fn run_on<A: ControllerAdapter>(
     let rt = args.rt();
     warn_rt(&apply(&rt.options()));
     let opts = rt.shell();
-    let lines = Lines { ctrl, frames: side.frames.clone(), log_tx, stop_rx, opts };
+    let lines = Lines { ctrl, frames: side.frames.take(), log_tx, stop_rx, opts };
     let end = match LineAddr::parse(&args.host_port) {
         LineAddr::Unix(path) => {
             let host = listen(&path).context("host line")?;
@@ -262,9 +263,9 @@ fn report_stop<S: PlanStore, A: ControllerAdapter>(
 
 struct Lines {
     ctrl: ControllerLine,
-    frames: Option<Receiver<CameraFrame>>,
+    frames: Option<rt_queue::Receiver<CameraFrame>>,
     log_tx: crossbeam_channel::Sender<LogEvent>,
-    stop_rx: Receiver<()>,
+    stop_rx: rt_queue::Receiver<()>,
     opts: ShellOptions,
 }
 

@@ -9,13 +9,14 @@ use mesopush_executor::clock::MonotonicClock;
 use mesopush_executor::shell::camera_addr::{CameraAddr, parse_size};
 use mesopush_executor::shell::camera_source::{CameraCounters, CameraEnd, CameraSinks};
 use mesopush_executor::shell::record::{ExecRecorder, RecordConfig};
+use mesopush_executor::shell::rt_queue;
 use mesopush_executor::{CameraFrame, LogEvent};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 /// What runs beside the shell: the recorder and, with `--camera`, the camera reader.
 pub(crate) struct Sidecar {
-    pub(crate) frames: Option<Receiver<CameraFrame>>,
+    pub(crate) frames: Option<rt_queue::Receiver<CameraFrame>>,
     pub(crate) camera: Option<std::thread::JoinHandle<CameraEnd>>,
     pub(crate) counters: Arc<CameraCounters>,
     pub(crate) stop: Arc<AtomicBool>,
@@ -47,7 +48,7 @@ pub(crate) fn sidecar(
             let addr = CameraAddr::parse(addr).map_err(anyhow::Error::msg)?;
             let size = args.camera_size.as_deref().map(parse_size).transpose();
             let size = size.map_err(|e| anyhow::anyhow!("--camera-size: {e}"))?;
-            let (tx, rx) = bounded(FRAME_QUEUE);
+            let (tx, rx) = rt_queue::bounded(FRAME_QUEUE);
             let sinks = CameraSinks {
                 clock: clock.clone(),
                 to_loop: tx,

@@ -10,6 +10,7 @@ use crossbeam_channel::{Receiver, Sender, bounded};
 use image::GrayImage;
 use mesopush_executor::clock::MonotonicClock;
 use mesopush_executor::shell::port::{Chunk, PipeReader, PipeWriter, split_tty};
+use mesopush_executor::shell::rt_queue;
 use mesopush_executor::shell::runner::ShellEnd;
 use mesopush_executor::shell::{Shell, ShellStats};
 use mesopush_executor::{CameraFrame, ExecutorConfig, LogEvent};
@@ -24,11 +25,11 @@ const PAINT_QUEUE: usize = 4;
 /// The executor's std shell on its own thread, and this thread's ends of its lines.
 pub(super) struct ShellThread {
     handle: JoinHandle<(ShellEnd, ShellStats)>,
-    pub(super) to_exec: Sender<Chunk>,
-    pub(super) to_host: Receiver<Chunk>,
-    pub(super) frames: Sender<CameraFrame>,
+    pub(super) to_exec: rt_queue::Sender<Chunk>,
+    pub(super) to_host: rt_queue::Receiver<Chunk>,
+    pub(super) frames: rt_queue::Sender<CameraFrame>,
     pub(super) log: Receiver<LogEvent>,
-    stop: Sender<()>,
+    stop: rt_queue::Sender<()>,
 }
 
 impl ShellThread {
@@ -41,11 +42,11 @@ impl ShellThread {
     ) -> Result<Self, Error> {
         let ctrl = split_tty(ctrl_port)
             .map_err(|e| Error::io(ctrl_path, io::Error::other(e.to_string())))?;
-        let (to_exec, to_exec_rx) = bounded(1024);
-        let (to_host_tx, to_host) = bounded::<Chunk>(1024);
-        let (frames, frame_rx) = bounded::<CameraFrame>(64);
+        let (to_exec, to_exec_rx) = rt_queue::bounded(1024);
+        let (to_host_tx, to_host) = rt_queue::bounded::<Chunk>(1024);
+        let (frames, frame_rx) = rt_queue::bounded::<CameraFrame>(64);
         let (log_tx, log) = bounded::<LogEvent>(4096);
-        let (stop, stop_rx) = bounded::<()>(1);
+        let (stop, stop_rx) = rt_queue::bounded::<()>(1);
         let mut endpoint = endpoint(config, 1)?;
         let handle = std::thread::spawn(move || {
             let mut stats = ShellStats::default();

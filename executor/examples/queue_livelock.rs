@@ -1,0 +1,105 @@
+//! Side by side: a `SCHED_FIFO` receiver and a normal-priority sender pinned to the same CPU,
+//! exchanging values over a `crossbeam-channel` queue and over the shell's `rt_queue`. The
+//! receiver wakes every 200 µs and takes everything queued (waiting up to 1 ms for the first); a wait much
+//! longer than that means it spun on a slot the preempted sender had claimed but not yet
+//! written (the stall that ended real-time bench trials, `shell::rt_queue`'s note).
+//!
+//! Run (root or CAP_SYS_NICE; Linux): `cargo run --release -p mesopush-executor --example
+//! queue_livelock -- [SECONDS_PER_ROUND] [ROUNDS] [CPU]` (defaults 5, 3, 1). Prints, per queue and
+//! round, the receiver's longest wait and how many waits exceeded 10 ms.
+
+use crossbeam_channel::TrySendError;
+use mesopush_executor::shell::rt::{RtOptions, apply, pin_current_thread};
+use mesopush_executor::shell::rt_queue;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Values the queue holds (the sender rarely finds it full: it is drained at every wake).
+const CAPACITY: usize = 1 << 16;
+
+/// The receiving side's longest wait and waits over 10 ms, µs.
+struct Waits {
+    max_us: u128,
+    over_10ms: u32,
+    received: u64,
+}
+
+/// Runs `recv` at FIFO 80 on `cpu` for `secs` while `send` runs at normal priority on the
+/// same CPU; returns the receiver's waits.
+fn round(
+    cpu: usize,
+    secs: f64,
+    send: impl FnMut(u64) -> bool + Send + 'static,
+    recv: impl FnMut() -> u64 + Send + 'static,
+) -> Waits {
+    let stop = Arc::new(AtomicBool::new(false));
+    let s2 = stop.clone();
+    let mut send = send;
+    let sender = std::thread::spawn(move || {
+        let _ = pin_current_thread(cpu);
+        let mut i = 0u64;
+        while !s2.load(Ordering::Relaxed) && send(i) {
+            i += 1;
+        }
+    });
+    let mut recv = recv;
+    let receiver = std::thread::spawn(move || {
+        let rt =
+            apply(&RtOptions { fifo_priority: Some(80), pin_cpu: Some(cpu), lock_memory: false });
+        if !rt.refused.is_empty() {
+            eprintln!("real-time set-up refused: {:?}", rt.refused);
+        }
+        let end = Instant::now() + Duration::from_secs_f64(secs);
+        let mut w = Waits { max_us: 0, over_10ms: 0, received: 0 };
+        while Instant::now() < end {
+            std::thread::sleep(Duration::from_micros(200));
+            let t0 = Instant::now();
+            w.received += recv();
+            let us = t0.elapsed().as_micros();
+            w.max_us = w.max_us.max(us);
+            w.over_10ms += u32::from(us > 10_000);
+        }
+        w
+    });
+    let w = receiver.join().expect("receiver");
+    stop.store(true, Ordering::Relaxed);
+    let _ = sender.join();
+    w
+}
+
+fn main() {
+    let arg = |i: usize, d: f64| std::env::args().nth(i).and_then(|a| a.parse().ok()).unwrap_or(d);
+    let (secs, rounds, cpu) = (arg(1, 5.0), arg(2, 3.0) as usize, arg(3, 1.0) as usize);
+    for r in 1..=rounds {
+        let (tx, rx) = crossbeam_channel::bounded::<u64>(CAPACITY);
+        let send = move |i| !matches!(tx.try_send(i), Err(TrySendError::Disconnected(_)));
+        let recv = move || {
+            let mut n = rx.recv_timeout(Duration::from_millis(1)).map_or(0, |_| 1);
+            while n > 0 && rx.try_recv().is_ok() {
+                n += 1;
+            }
+            n
+        };
+        report("crossbeam", r, &round(cpu, secs, send, recv));
+        let (tx, rx) = rt_queue::bounded::<u64>(CAPACITY);
+        let send = move |i| !matches!(tx.try_send(i), Err(rt_queue::TrySendError::Disconnected(_)));
+        let recv = move || {
+            let mut n = rx.recv_timeout(Duration::from_millis(1)).map_or(0, |_| 1);
+            while n > 0 && rx.try_recv().is_ok() {
+                n += 1;
+            }
+            n
+        };
+        report("rt_queue", r, &round(cpu, secs, send, recv));
+    }
+}
+
+fn report(queue: &str, round: usize, w: &Waits) {
+    println!(
+        "{queue:9} round {round}: {} received, longest wait {:.1} ms, waits over 10 ms: {}",
+        w.received,
+        w.max_us as f64 / 1e3,
+        w.over_10ms
+    );
+}
