@@ -87,15 +87,25 @@ impl<T> Shared<T> {
 }
 
 /// The sending end (clone it for several producers).
-#[derive(Debug)]
 pub struct Sender<T> {
     shared: Arc<Shared<T>>,
 }
 
 /// The receiving end (one consumer).
-#[derive(Debug)]
 pub struct Receiver<T> {
     shared: Arc<Shared<T>>,
+}
+
+impl<T> core::fmt::Debug for Sender<T> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("rt_queue::Sender { .. }")
+    }
+}
+
+impl<T> core::fmt::Debug for Receiver<T> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("rt_queue::Receiver { .. }")
+    }
 }
 
 /// Why [`Sender::try_send`] did not queue the value (which it hands back).
@@ -148,6 +158,16 @@ pub fn bounded<T>(capacity: usize) -> (Sender<T>, Receiver<T>) {
 }
 
 impl<T> Sender<T> {
+    /// Values queued now.
+    pub fn len(&self) -> usize {
+        lock(&self.shared.state).items.len()
+    }
+
+    /// Whether nothing is queued now.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
     /// Queues `value` unless the queue is full or the receiver gone.
     pub fn try_send(&self, value: T) -> Result<(), TrySendError<T>> {
         let mut s = lock(&self.shared.state);

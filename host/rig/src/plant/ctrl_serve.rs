@@ -16,7 +16,7 @@
 //! silent controller; a write that found some room but not enough could block the loop.
 
 use super::vendor::Plant;
-use crossbeam_channel::{Receiver, Sender, TrySendError, bounded};
+use mesopush_executor::shell::rt_queue::{Receiver, Sender, TrySendError, bounded};
 use mesopush_firmware_sim::World;
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
 use mesopush_protocol::FRAME_BUF_LEN;
@@ -68,7 +68,7 @@ pub struct ServedController {
 /// line cannot take because nobody has the slave open is dropped (the node resends).
 /// Ends when the queue's sender is dropped, or on another write error (`failed` set).
 fn write_frames(mut port: TTYPort, rx: &Receiver<Vec<u8>>, failed: &AtomicBool) {
-    for frame in rx {
+    while let Some(frame) = rx.recv() {
         let mut off = 0;
         while off < frame.len() {
             match port.write(&frame[off..]) {

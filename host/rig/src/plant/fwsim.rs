@@ -11,7 +11,8 @@
 //!
 //! Threads: the controller loop (line, controller node, world physics, camera schedule)
 //! never renders. At each delivered frame it hands the frame's header and ground truth to
-//! the renderer thread through a bounded queue (`RENDER_QUEUE`) with `try_send`: when the
+//! the renderer thread through a bounded `rt_queue` (`RENDER_QUEUE`; it never spins on the renderer
+//! when the loop runs at `--rt-priority`) with `try_send`: when the
 //! renderer falls behind, the frame is dropped and counted (`frames_render_dropped`; the
 //! executor sees the counter gap as a dropped frame), the controller never waits. The
 //! renderer draws the synthetic microscope image (its own noise stream, seed stream
@@ -35,10 +36,11 @@ use super::vendor::{EmulatorBox, Plant, emulator};
 use super::world::RigWorld;
 use super::world_file::{WorldFile, realtime_faults};
 use crate::Error;
-use crossbeam_channel::{Sender, bounded};
+use crossbeam_channel::bounded;
 use mesopush_core::geom::Vec2;
 use mesopush_executor::clock::{Clock, MonotonicClock};
 use mesopush_executor::shell::controller::ControllerKind;
+use mesopush_executor::shell::rt_queue;
 use mesopush_firmware_sim::SimRng;
 use mesopush_firmware_sim::camera::{SimCamera, SimFrame};
 use mesopush_protocol::camera::CameraFrameHeader;
@@ -122,7 +124,7 @@ pub struct Fwsim {
     ctrl: ServedController,
     world: RigWorld,
     clock: MonotonicClock,
-    render_tx: Sender<RenderJob>,
+    render_tx: rt_queue::Sender<RenderJob>,
     renderer: JoinHandle<Result<(), Error>>,
     render_dropped: u64,
     unsent: Arc<AtomicU64>,
@@ -231,7 +233,7 @@ impl Fwsim {
         let unsent = Arc::new(AtomicU64::new(0));
         let u = unsent.clone();
         std::thread::spawn(move || serve_camera(&listener, &camera_rx, &u));
-        let (render_tx, render_rx) = bounded(RENDER_QUEUE);
+        let (render_tx, render_rx) = rt_queue::bounded(RENDER_QUEUE);
         let (u, tp) = (unsent.clone(), truth_path.clone());
         let renderer = std::thread::spawn(move || {
             render_frames(painter, &render_rx, &camera_tx, &u, (truth, &tp))

@@ -6,6 +6,7 @@ use crate::Error;
 use crate::plant::painter::Painter;
 use crate::plant::truth::TruthSample;
 use crossbeam_channel::{Receiver, Sender};
+use mesopush_executor::shell::rt_queue;
 use mesopush_protocol::camera::CameraFrameHeader;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -25,12 +26,12 @@ pub(super) struct RenderJob {
 /// queue: counted unsent, not waited for) and writes its truth row (flushed per row).
 pub(super) fn render_frames(
     mut painter: Painter,
-    rx: &Receiver<RenderJob>,
+    rx: &rt_queue::Receiver<RenderJob>,
     camera_tx: &Sender<(CameraFrameHeader, Vec<u8>)>,
     unsent: &AtomicU64,
     (mut truth, truth_path): (BufWriter<File>, &Path),
 ) -> Result<(), Error> {
-    for job in rx {
+    while let Some(job) = rx.recv() {
         let pixels = job.truth.as_ref().map(|t| painter.paint(t)).unwrap_or_default();
         let stamp_mono = job.header.capture_mono_us.unwrap_or(0);
         if camera_tx.try_send((job.header, pixels)).is_err() {
