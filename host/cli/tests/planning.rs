@@ -299,3 +299,37 @@ fn the_shipped_two_stage_plan_inserts_in_its_nominal_replay_within_the_needle_li
     // It starts with the press before the first push: down past the peg, then up.
     assert!(plan.moves_um[0][1] > 700.0 && plan.moves_um[2][1] < -100.0, "{:?}", plan.moves_um);
 }
+
+#[test]
+fn a_wall_press_stage_with_no_press_that_suits_re_tunes_the_moves_and_uses_its_budget() {
+    // The triangle task's plans have no press before the first move that keeps them
+    // inserting: stage 2 used to be skipped then, leaving half the budget unused (issue 21).
+    let dir = tempfile::tempdir().unwrap();
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../plans/triangle");
+    let (model, fixture) = (format!("{root}/model.toml"), format!("{root}/fixture.toml"));
+    let out = small_robust(
+        &dir.path().join("tri.toml"),
+        2,
+        &[
+            "--model",
+            &model,
+            "--fixture",
+            &fixture,
+            "--start",
+            "2330,1210,90",
+            "--from-rrt",
+            "--rrt-starts",
+            "2",
+            "--wall-press",
+            "--max-replays",
+            "4000",
+        ],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let o: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let st = &o["stage2"];
+    assert!(st["without_press"].as_str().is_some_and(|w| w.contains("no press")), "{o}");
+    assert!(st["press"].is_null() && st["skipped"].is_null(), "{o}");
+    assert!(st["second"].is_object() && st["choice"].is_object(), "stage 2 ran: {o}");
+    assert!(o["total_replays"].as_u64().unwrap() <= 4000, "{o}");
+}

@@ -8,7 +8,8 @@
 //! unchanged mostly fails (Table II's task: 84 % with a press before the first push, 97.8 %
 //! without; 99 % once re-tuned, docs/planning.md). So the screening only ranks the presses
 //! against one another; the re-tuned plan then has to beat stage 1's on common worlds
-//! ([`Choice`]) to be returned.
+//! ([`Choice`]) to be returned. When no press suits the plan, stage 2 re-tunes its moves without
+//! one (`without_press`), so the budget left after stage 1 is never unused.
 
 use crate::Error;
 use crate::family::{PathFamily, PlanFamily};
@@ -69,6 +70,10 @@ pub struct Stage2 {
     pub choice: Option<Choice>,
     /// Why stage 2 did not run, in words.
     pub skipped: Option<String>,
+    /// Why stage 2 (with [`Refine::WallPress`]) re-tuned the moves without a press, in words:
+    /// when no press suits the plan the rest of the budget still goes to its moves, as with
+    /// [`Refine::Moves`], instead of being left unused.
+    pub without_press: Option<String>,
     /// Replays of the press screening and the choice (stage 1's and 2's are in their own
     /// `trials`).
     pub extra_replays: usize,
@@ -123,6 +128,7 @@ pub fn second_stage(
         second_param_names: Vec::new(),
         choice: None,
         skipped: None,
+        without_press: None,
         extra_replays: 0,
         first,
     };
@@ -139,12 +145,16 @@ pub fn second_stage(
             out.extra_replays += sc.replays();
             let best = sc.best.clone();
             out.screened = Some(sc);
-            let Some((press, _)) = best else {
-                out.skipped = Some("no press reaches a wall and still inserts".into());
-                return Ok(out);
-            };
-            out.press = Some((press.after_move, press.direction, press.gap_um));
-            press.plan
+            match best {
+                Some((press, _)) => {
+                    out.press = Some((press.after_move, press.direction, press.gap_um));
+                    press.plan
+                }
+                None => {
+                    out.without_press = Some("no press reaches a wall and still inserts".into());
+                    base.clone()
+                }
+            }
         }
     };
     let used = out.first.trials + out.extra_replays + 2 * choice_samples;

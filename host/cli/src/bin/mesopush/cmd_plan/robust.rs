@@ -313,6 +313,7 @@ fn stage2_json(st: &Stage2) -> serde_json::Value {
             "second_wins": c.second_wins(),
         })),
         "skipped": st.skipped,
+        "without_press": st.without_press,
     })
 }
 
@@ -378,6 +379,9 @@ fn print_start_moves(o: &RobustReport, rrt: Option<&RrtStart>) {
     if let Some((after, dir, gap)) = st.press {
         let at = after.map_or("before the first move".to_string(), |k| format!("after move {k}"));
         println!("stage 2: a press towards {dir} {at} (gap {gap:.0} µm), then every move re-tuned");
+    }
+    if let Some(why) = &st.without_press {
+        println!("stage 2: {why}; every move re-tuned without one");
     }
     match (&st.second, &st.choice, &st.skipped) {
         (Some(_), Some(c), _) => println!(
