@@ -96,21 +96,13 @@ fn a_fifo_receiver_never_spins_on_a_preempted_sender_sharing_its_cpu() {
         let (tx, rx) = crossbeam_channel::bounded::<u64>(CAPACITY);
         let send = move |i| !matches!(tx.try_send(i), Err(TrySendError::Disconnected(_)));
         let recv = move || {
-            let mut n = rx.recv_timeout(Duration::from_millis(1)).map_or(0, |_| 1);
-            while n > 0 && rx.try_recv().is_ok() {
-                n += 1;
-            }
-            n
+            drain(rx.recv_timeout(Duration::from_millis(1)).is_ok(), || rx.try_recv().is_ok())
         };
         report("crossbeam", r, &round(cpu, secs, send, recv));
         let (tx, rx) = rt_queue::bounded::<u64>(CAPACITY);
         let send = move |i| !matches!(tx.try_send(i), Err(rt_queue::TrySendError::Disconnected(_)));
         let recv = move || {
-            let mut n = rx.recv_timeout(Duration::from_millis(1)).map_or(0, |_| 1);
-            while n > 0 && rx.try_recv().is_ok() {
-                n += 1;
-            }
-            n
+            drain(rx.recv_timeout(Duration::from_millis(1)).is_ok(), || rx.try_recv().is_ok())
         };
         let w = round(cpu, secs, send, recv);
         report("rt_queue", r, &w);
@@ -121,6 +113,15 @@ fn a_fifo_receiver_never_spins_on_a_preempted_sender_sharing_its_cpu() {
             w.max_us as f64 / 1e3
         );
     }
+}
+
+/// Values taken at one wake: the first (if it came within the wait) and all queued after it.
+fn drain(first: bool, mut next: impl FnMut() -> bool) -> u64 {
+    let mut n = u64::from(first);
+    while n > 0 && next() {
+        n += 1;
+    }
+    n
 }
 
 fn report(queue: &str, round: usize, w: &Waits) {
