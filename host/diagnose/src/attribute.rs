@@ -159,7 +159,10 @@ pub fn diagnose(
     let band = opts.floor_factor * (2.0 + if with_tip { 1.0 } else { 0.0 });
     progress("nominal support");
     let held = Held { trials: heldout, settings: s, noise: &noise, with_tip };
-    let (nominal, shifted, support_fit) = nominal_base(&prior, train, &held, band, opts);
+    let (nominal, shifted, support_fit, fit_train) = nominal_base(&prior, train, &held, band, opts);
+    // The effects are fitted (and the nominal rescued, the uncertainties taken) on the
+    // training trials with their start-pose sensitivity at the nominal fit.
+    let train = &fit_train[..];
     // Each effect is fitted about the nominal fit, and also about the shifted prior when a
     // free support was kept: the free points may have bent to absorb the very effect (a
     // friction patch), which the effect can then not undo by a shift.

@@ -51,6 +51,10 @@ pub struct TrialData {
     pub cmd: Vec<ProbePoint>,
     /// Measured frames, in time order.
     pub frames: Vec<Measured>,
+    /// Derived, not recorded: how the replay's strokes depend on their measured start poses,
+    /// attached to training trials so the fits' loss is profiled over the starts
+    /// ([`crate::start_pose`]); `None` as loaded.
+    pub start_sensitivity: Option<std::sync::Arc<crate::start_pose::StartSensitivity>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -132,6 +136,7 @@ impl TrialData {
             fixture: trial.meta.fixture.clone().unwrap_or_else(open_plate),
             cmd,
             frames,
+            start_sensitivity: None,
         })
     }
 

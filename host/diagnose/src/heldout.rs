@@ -107,7 +107,7 @@ fn hold_out(
     let with_tip = train.iter().any(TrialData::has_tips);
     let band = opts.floor_factor * (2.0 + if with_tip { 1.0 } else { 0.0 });
     let h = Held { trials: &choose_on, settings: &s, noise: &noise, with_tip };
-    let (fit, _, support_fit) = nominal_base(prior, &fit_on, &h, band, opts);
+    let (fit, _, support_fit, _) = nominal_base(prior, &fit_on, &h, band, opts);
     let runs: Vec<TrialReplay> =
         held.iter().map(|t| replay_trial(&fit.model, t, &s)).collect::<Result<_, _>>()?;
     let (spread_um, spread_deg) = final_spread(held);

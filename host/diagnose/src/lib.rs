@@ -35,6 +35,7 @@ pub mod replay;
 pub mod report;
 pub mod residual;
 pub mod rig_batch;
+pub mod start_pose;
 pub mod starts;
 pub mod structure;
 pub mod synth;

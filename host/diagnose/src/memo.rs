@@ -168,6 +168,7 @@ mod tests {
             fixture: open_plate(),
             cmd: vec![ProbePoint::new(0.0, Vec2::new(0.0, 0.0)), ProbePoint::new(1.0, Vec2::x())],
             frames,
+            start_sensitivity: None,
         }
     }
 

@@ -16,9 +16,10 @@
 use super::candidates::{Effect, mean_mu_surface};
 use super::data::TrialData;
 use super::fit::{Fit, fit};
-use super::objective::{residual_vector, residuals};
+use super::objective::{loss, residual_vector, residuals};
 use super::options::Options;
 use super::residual::{Mse, Noise};
+use super::start_pose::attach;
 use mesopush_core::geom::{ConvexPolygon, Pose, Vec2};
 use mesopush_ident::joint::{
     Layout, Objective, OptimizeSettings, Optimized, optimize_objective, refine,
@@ -248,21 +249,29 @@ impl SupportFit {
 /// parameters: the prior support shifted; all three points free; their friction loads too.
 /// The next family is tried only while the held-out error stays above the floor `band`, and
 /// kept only when it lowers the held-out error (a family that fits the training trials by a
-/// support that predicts nothing else is never kept). Returns the nominal fit kept (its
-/// `base` the fitted support), the shifted family's fit and what was tried.
+/// support that predicts nothing else is never kept). With `opts.profile_start_poses` the
+/// training loss is profiled over the start poses ([`crate::start_pose`]), their
+/// sensitivity taken at the prior for the shifted family, at the shifted fit for the free
+/// ones. Returns the nominal fit kept (its `base` the fitted support), the shifted family's
+/// fit, what was tried, and the training trials the effects are to be fitted on (their
+/// sensitivity taken at the fit kept; both fits' losses on them).
 pub fn nominal_base(
     prior: &Model,
     train: &[TrialData],
     held: &Held<'_>,
     band: f64,
     opts: &Options,
-) -> (Fit, Fit, SupportFit) {
+) -> (Fit, Fit, SupportFit, Vec<TrialData>) {
     let (s, noise) = (held.settings, held.noise);
-    let fit_on = |base: &Model| {
+    let at = |m: &Model| {
+        if opts.profile_start_poses { attach(train, m, s, noise) } else { train.to_vec() }
+    };
+    let fit_on = |base: &Model, train: &[TrialData]| {
         let x0 = vec![base.mu_probe, mean_mu_surface(&base.support), 0.0, 0.0];
         fit(Effect::Nominal, base, train, s, noise, &[x0], opts.nominal_evals)
     };
-    let shifted = fit_on(prior);
+    let mut shifted = fit_on(prior, &at(prior));
+    let train = at(&shifted.model);
     let mut best = (held.norm(&shifted.model), shifted.clone());
     let mut out =
         SupportFit { family: "shifted", heldout_norm: vec![("shifted", best.0)], evals: 0 };
@@ -272,9 +281,9 @@ pub fn nominal_base(
         }
         let from = &best.1.model;
         let starts = if free_loads { vec![candidate_of(from)] } else { starts(from) };
-        let (m, o) = fit_support(from, train, s, noise, &starts, opts.support_evals, free_loads);
+        let (m, o) = fit_support(from, &train, s, noise, &starts, opts.support_evals, free_loads);
         out.evals += o.evals;
-        let f = fit_on(&m);
+        let f = fit_on(&m, &train);
         let e = held.norm(&f.model);
         out.heldout_norm.push((family, e));
         if e < best.0 {
@@ -282,5 +291,10 @@ pub fn nominal_base(
             best = (e, f);
         }
     }
-    (best.1, shifted, out)
+    let train = at(&best.1.model);
+    let mut kept = best.1;
+    for f in [&mut kept, &mut shifted] {
+        f.loss = loss(&train, &f.model, s, noise).0;
+    }
+    (kept, shifted, out, train)
 }

@@ -40,8 +40,34 @@ fn each_residual(
         .collect()
 }
 
+/// A residual profiled over its trial's start poses and the starts' corrections (prior σ).
+type Profiled = (Residual, Vec<[f64; 3]>);
+
+/// [`each_residual`], profiled over the start poses where a trial carries its start-pose
+/// sensitivity ([`crate::start_pose`]): each residual with the starts' corrections, in
+/// prior σ, whose squares join the loss.
+fn each_profiled(
+    trials: &[TrialData],
+    model: &Model,
+    settings: &SimSettings,
+    noise: &Noise,
+) -> Vec<Result<Profiled, Error>> {
+    each_residual(trials, model, settings)
+        .into_iter()
+        .zip(trials)
+        .map(|(r, t)| {
+            let mut r = r?;
+            let deltas =
+                t.start_sensitivity.as_ref().map_or(Vec::new(), |s| s.profile(&mut r, noise));
+            Ok((r, deltas))
+        })
+        .collect()
+}
+
 /// The weighted sum of squared residuals of `model` over `trials` (each channel divided by
-/// its noise variance) and the number of scalar residuals in it.
+/// its noise variance) and the number of scalar residuals in it; a trial carrying its
+/// start-pose sensitivity (a training trial) is profiled over its start poses, their
+/// corrections' squares (in prior σ) added ([`crate::start_pose`]).
 pub fn loss(
     trials: &[TrialData],
     model: &Model,
@@ -53,11 +79,11 @@ pub fn loss(
     }
     let mut sum = 0.0;
     let mut n = 0;
-    for r in each_residual(trials, model, settings) {
+    for r in each_profiled(trials, model, settings, noise) {
         match r {
-            Ok(r) => {
+            Ok((r, deltas)) => {
                 let (s, k) = r.weighted_sse(noise);
-                sum += s;
+                sum += s + deltas.iter().flatten().map(|d| d * d).sum::<f64>();
                 n += k;
             }
             Err(_) => return (FAILED, 1),
@@ -67,7 +93,8 @@ pub fn loss(
 }
 
 /// Every weighted residual scalar of `model` over `trials` (see
-/// [`Residual::weighted_into`]); `None` when it cannot be simulated.
+/// [`Residual::weighted_into`]; profiled as in [`loss`], the start corrections appended);
+/// `None` when it cannot be simulated.
 pub fn residual_vector(
     trials: &[TrialData],
     model: &Model,
@@ -78,8 +105,10 @@ pub fn residual_vector(
         return None;
     }
     let mut out = Vec::new();
-    for r in each_residual(trials, model, settings) {
-        r.ok()?.weighted_into(noise, &mut out);
+    for r in each_profiled(trials, model, settings, noise) {
+        let (r, deltas) = r.ok()?;
+        r.weighted_into(noise, &mut out);
+        out.extend(deltas.iter().flatten());
     }
     Some(out)
 }

@@ -33,6 +33,10 @@ pub struct Options {
     /// held-out trials about as well and neither explains them; the verdict is then
     /// `unexplained` (naming both in the diagnosis's `ambiguity`), never a guess between them. Default 1.15.
     pub ambiguity_ratio: f64,
+    /// Whether the training loss is profiled over the replay's measured start poses
+    /// ([`crate::start_pose`]): their tracker noise then cannot bend the fitted support.
+    /// Default true (false: the loss of every fit is the plain prediction error).
+    pub profile_start_poses: bool,
 }
 
 impl Default for Options {
@@ -48,6 +52,7 @@ impl Default for Options {
             floor_factor: 5.0,
             min_delta_bic: 10.0,
             ambiguity_ratio: 1.15,
+            profile_start_poses: true,
         }
     }
 }

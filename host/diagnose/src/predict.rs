@@ -142,16 +142,22 @@ pub fn restart_frames(
 /// are one second at 30 Hz).
 const RESTART_FRAMES: usize = 30;
 
-/// The measured pose to restart from at frame `k`: the mean over the clear frames up to
-/// [`RESTART_FRAMES`] back, or, at frame 0, the clear frames from it forward (the peg rests
-/// until the probe first comes near: a start from frame 0 alone carried one frame's
-/// tracker noise through the whole first stroke); frame `k` alone when it is not clear.
-fn rest_pose(data: &TrialData, clear: &[bool], k: usize) -> Pose {
-    let span: Vec<usize> = if k == 0 {
+/// The clear frames whose mean is the restart pose at frame `k`: up to [`RESTART_FRAMES`]
+/// back, or, at frame 0, from it forward (the peg rests until the probe first comes near:
+/// a start from frame 0 alone carried one frame's tracker noise through the whole first
+/// stroke); empty when frame `k` is not clear.
+fn rest_span(clear: &[bool], k: usize) -> Vec<usize> {
+    if k == 0 {
         (0..clear.len().min(RESTART_FRAMES)).take_while(|&j| clear[j]).collect()
     } else {
         (k.saturating_sub(RESTART_FRAMES - 1)..=k).rev().take_while(|&j| clear[j]).collect()
-    };
+    }
+}
+
+/// The measured pose to restart from at frame `k`: the mean over [`rest_span`], frame `k`
+/// alone when it is not clear.
+fn rest_pose(data: &TrialData, clear: &[bool], k: usize) -> Pose {
+    let span = rest_span(clear, k);
     if span.is_empty() {
         return data.frames[k].pose;
     }
@@ -168,6 +174,60 @@ fn rest_pose(data: &TrialData, clear: &[bool], k: usize) -> Pose {
     Pose::new(x / n, y / n, th0 + dth / n)
 }
 
+/// One stretch of a replay with restarts: the frames it predicts and how many measured
+/// frames its start pose is the mean of (1 when the start frame is not clear).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Segment {
+    /// Frames predicted by this stretch's replay.
+    pub frames: std::ops::Range<usize>,
+    /// Frames averaged for its start pose.
+    pub rest_frames: usize,
+}
+
+/// The stretches [`predict`] replays `data` in under `model` (restarts where the probe has
+/// been clear, and after every gap in the recording), in order.
+pub fn segments(data: &TrialData, model: &Model) -> Vec<Segment> {
+    let path = tip_path(&model.effects, &data.cmd);
+    let (starts, clear) = restarts(data, &path, model.part.polygon(), &model.effects, true);
+    starts
+        .iter()
+        .enumerate()
+        .map(|(i, &k)| Segment {
+            frames: k..starts.get(i + 1).copied().unwrap_or(data.frames.len()),
+            rest_frames: rest_span(&clear, k).len().max(1),
+        })
+        .collect()
+}
+
+/// The frames a replay restarts from, sorted ([`restart_frames`] when `with_restarts`, else
+/// frame 0; and the first frame after every log gap), and which frames are clear.
+fn restarts(
+    data: &TrialData,
+    path: &[ProbePoint],
+    polygon: &ConvexPolygon,
+    fx: &Effects,
+    with_restarts: bool,
+) -> (Vec<usize>, Vec<bool>) {
+    // The same at every evaluation with the same backlash (the tip path) and part: kept.
+    let (mut starts, clear) = if with_restarts {
+        let key = format!("restart_frames {:?} {polygon:?}", fx.backlash_um);
+        let Ok(r) = cached(data, &key, || Ok::<_, Infallible>(restart_frames(data, path, polygon)));
+        r.as_ref().clone()
+    } else {
+        (vec![0], vec![false; data.frames.len()])
+    };
+    // Where the recording says the pusher's path is unknown, the replay starts again.
+    for g in &data.log_gaps_s {
+        let k = data.frames.partition_point(|f| f.t_s < *g);
+        if k < data.frames.len() {
+            starts.push(k);
+        }
+    }
+    starts.sort_unstable();
+    starts.dedup();
+    (starts, clear)
+}
+
 /// Predicts every frame of `data` under `model` (its `effects` included), the replay
 /// restarted from the measured pose whenever the probe has been clear of the peg
 /// ([`restart_frames`]).
@@ -176,7 +236,20 @@ pub fn predict(
     model: &Model,
     settings: &SimSettings,
 ) -> Result<Prediction, Error> {
-    predict_with(data, model, settings, true)
+    predict_with(data, model, settings, true, None)
+}
+
+/// As [`predict`], with the start pose of segment `segment` ([`segments`]) moved by
+/// `offset` (x µm, y µm, θ rad): how the prediction depends on a restart pose measured
+/// with the tracker's noise ([`crate::start_pose`]).
+pub fn predict_shifted(
+    data: &TrialData,
+    model: &Model,
+    settings: &SimSettings,
+    segment: usize,
+    offset: [f64; 3],
+) -> Result<Prediction, Error> {
+    predict_with(data, model, settings, true, Some((segment, offset)))
 }
 
 /// Predicts every frame of `data` under `model` in one replay from the first frame's pose:
@@ -186,14 +259,15 @@ pub fn predict_open_loop(
     model: &Model,
     settings: &SimSettings,
 ) -> Result<Prediction, Error> {
-    predict_with(data, model, settings, false)
+    predict_with(data, model, settings, false, None)
 }
 
 fn predict_with(
     data: &TrialData,
     model: &Model,
     settings: &SimSettings,
-    restarts: bool,
+    with_restarts: bool,
+    shift: Option<(usize, [f64; 3])>,
 ) -> Result<Prediction, Error> {
     let fx = &model.effects;
     let m = model_for_trial(model, data);
@@ -208,24 +282,7 @@ fn predict_with(
         lcp_solves: 0,
         start_separation_um: 0.0,
     };
-    // The same at every evaluation with the same backlash (the tip path) and part: kept.
-    let (mut starts, clear) = if restarts {
-        let key = format!("restart_frames {:?} {polygon:?}", fx.backlash_um);
-        let Ok(r) =
-            cached(data, &key, || Ok::<_, Infallible>(restart_frames(data, &path, &polygon)));
-        r.as_ref().clone()
-    } else {
-        (vec![0], vec![false; data.frames.len()])
-    };
-    // Where the recording says the pusher's path is unknown, the replay starts again.
-    for g in &data.log_gaps_s {
-        let k = data.frames.partition_point(|f| f.t_s < *g);
-        if k < data.frames.len() {
-            starts.push(k);
-        }
-    }
-    starts.sort_unstable();
-    starts.dedup();
+    let (starts, clear) = restarts(data, &path, &polygon, fx, with_restarts);
     for (i, &k) in starts.iter().enumerate() {
         let t0 = data.frames[k].t_s;
         let mut t1 = starts.get(i + 1).map_or(f64::INFINITY, |&j| data.frames[j].t_s);
@@ -238,7 +295,10 @@ fn predict_with(
         if seg.len() < 2 {
             continue;
         }
-        let at = rest_pose(data, &clear, k);
+        let mut at = rest_pose(data, &clear, k);
+        if let Some((_, [dx, dy, dth])) = shift.filter(|(j, _)| *j == i) {
+            at = Pose::new(at.x_um + dx, at.y_um + dy, at.theta_rad + dth);
+        }
         let c = remove_scale_error(at.position(), fx.scale_error, fx.scale_origin_um);
         // The angle's aspect distortion is second order (< 1e-4 rad at 3 %); ignored here.
         if i > 0 {

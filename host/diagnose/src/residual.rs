@@ -355,6 +355,7 @@ mod tests {
             fixture: open_plate(),
             cmd,
             frames,
+            start_sensitivity: None,
         }
     }
 

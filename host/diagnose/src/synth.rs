@@ -242,6 +242,7 @@ pub fn write_trial(
         fixture: open_plate(),
         cmd: cmd.clone(),
         frames,
+        start_sensitivity: None,
     };
     let pred = predict_open_loop(&data, truth, &SimSettings::default())?;
     let mut meta = TrialMeta::new(id, "mesopush-synth", truth.part.clone());

@@ -58,6 +58,14 @@ pub(crate) struct Budgets {
     /// part's uniform-pressure support (the paper's default model for the paper's peg).
     #[arg(long)]
     model: Option<PathBuf>,
+    /// Fit on the plain prediction error from the measured restart poses, not profiled
+    /// over their tracker noise (docs/diagnose.md; for comparison).
+    #[arg(long)]
+    plain_starts: bool,
+    /// Probe travel per simulator step in the replays, µm, for the paper's peg (scaled with
+    /// the part's size).
+    #[arg(long, default_value_t = Options::default().settings.step_um, value_parser = crate::ranges::step_um())]
+    sim_step_um: f64,
 }
 
 impl Budgets {
@@ -68,6 +76,11 @@ impl Budgets {
             effect_evals: self.effect_evals,
             support_evals: self.support_evals,
             start_model,
+            profile_start_poses: !self.plain_starts,
+            settings: mesopush_sim::SimSettings {
+                step_um: self.sim_step_um,
+                ..Options::default().settings
+            },
             ..Options::default()
         })
     }
