@@ -163,9 +163,10 @@ pub fn diagnose(
     // The effects are fitted (and the nominal rescued, the uncertainties taken) on the
     // training trials with their start-pose sensitivity at the nominal fit.
     let train = &fit_train[..];
-    // Each effect is fitted about the nominal fit, and also about the shifted prior when a
-    // free support was kept: the free points may have bent to absorb the very effect (a
-    // friction patch), which the effect can then not undo by a shift.
+    // Each effect is fitted about the nominal fit; an effect on the supports' friction is
+    // also fitted about the shifted prior when a free support was kept: the free points may
+    // have bent to absorb the very effect (a friction patch), which the effect can then not
+    // undo by a shift ([`Effect::acts_on_supports`]).
     // A nominal model already at the floor on the held-out trials leaves nothing for an
     // effect to explain (the verdict is `none` whatever they would fit): none is fitted.
     let at_floor = support_fit.kept_heldout_norm() <= band;
@@ -175,9 +176,15 @@ pub fn diagnose(
         fit_effects(&nominal, prior_mu, train, &noise, last_index, (s, opts), progress)
     };
     if !at_floor && support_fit.family != "shifted" {
-        let other = fit_effects(&shifted, prior_mu, train, &noise, last_index, (s, opts), progress);
-        for (f, g) in fits.iter_mut().zip(other) {
-            if g.loss < f.loss {
+        let on_supports: Vec<Effect> =
+            opts.candidates.iter().copied().filter(|c| c.acts_on_supports()).collect();
+        let opts_s = Options { candidates: on_supports, ..opts.clone() };
+        let other =
+            fit_effects(&shifted, prior_mu, train, &noise, last_index, (s, &opts_s), progress);
+        for g in other {
+            if let Some(f) = fits.iter_mut().find(|f| f.candidate == g.candidate)
+                && g.loss < f.loss
+            {
                 *f = g;
             }
         }

@@ -106,6 +106,14 @@ impl Effect {
         Effect::EFFECTS.into_iter().find(|c| c.name() == name)
     }
 
+    /// Whether the effect changes the friction the supports carry (a friction patch, speed
+    /// friction, a support drift): the kind of effect a free support can bend to absorb,
+    /// so diagnosis also fits it about the shifted prior ([`crate::attribute`]). The stage,
+    /// camera, needle and adhesion effects act elsewhere.
+    pub fn acts_on_supports(self) -> bool {
+        matches!(self, Effect::FrictionPatch | Effect::SpeedFriction | Effect::SupportDrift)
+    }
+
     /// Library name (as in `--json` and the docs).
     pub fn name(self) -> &'static str {
         match self {
