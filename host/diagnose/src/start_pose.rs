@@ -27,6 +27,7 @@
 use super::data::TrialData;
 use super::predict::{predict, predict_shifted, segments};
 use super::residual::{Noise, Residual};
+use mesopush_ident::optim::lm::solve;
 use mesopush_sim::{Model, SimSettings};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -36,8 +37,6 @@ use std::sync::Arc;
 struct Stroke {
     /// First frame the stroke predicts.
     first: usize,
-    /// The prior's 1σ of the start pose: x µm, y µm, θ rad.
-    sigma: [f64; 3],
     /// Per frame, ∂(peg x, y, θ)/∂(start x, y, θ), each column per the start's 1σ (so the
     /// prior on the scaled start is the identity).
     jac: Vec<[[f64; 3]; 3]>,
@@ -81,7 +80,7 @@ pub fn sensitivity(
                     row[2][axis] = (a.theta_rad - b.theta_rad) / per_frame[2];
                 }
             }
-            Stroke { first: seg.frames.start, sigma, jac }
+            Stroke { first: seg.frames.start, jac }
         })
         .collect();
     Some(StartSensitivity { strokes })
@@ -134,7 +133,9 @@ impl StartSensitivity {
                 }
             }
             // JᵀJ + I is positive definite; a non-finite residual leaves the start as measured.
-            let d = solve3(a, b).unwrap_or([0.0; 3]);
+            let d = solve(a.map(Vec::from).into(), b.into())
+                .filter(|d| d.iter().all(|v| v.is_finite()))
+                .map_or([0.0; 3], |d| [d[0], d[1], d[2]]);
             for (f, j) in frames.iter_mut().zip(&s.jac) {
                 for o in 0..3 {
                     f.peg[o] -= w[o] * (j[o][0] * d[0] + j[o][1] * d[1] + j[o][2] * d[2]);
@@ -144,55 +145,11 @@ impl StartSensitivity {
         }
         deltas
     }
-
-    /// The strokes' prior 1σ of the start pose (x µm, y µm, θ rad), in order.
-    pub fn start_sigmas(&self) -> Vec<[f64; 3]> {
-        self.strokes.iter().map(|s| s.sigma).collect()
-    }
-}
-
-/// Solves the symmetric positive definite 3 × 3 system `a x = b` (Gaussian elimination with
-/// partial pivoting); `None` when singular.
-fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
-    for i in 0..3 {
-        let p = (i..3).max_by(|&x, &y| a[x][i].abs().total_cmp(&a[y][i].abs()))?;
-        a.swap(i, p);
-        b.swap(i, p);
-        if a[i][i].abs() < 1e-300 || !a[i][i].is_finite() {
-            return None;
-        }
-        let pivot = a[i];
-        for r in i + 1..3 {
-            let f = a[r][i] / pivot[i];
-            for (x, p) in a[r][i..].iter_mut().zip(&pivot[i..]) {
-                *x -= f * p;
-            }
-            b[r] -= f * b[i];
-        }
-    }
-    let mut x = [0.0; 3];
-    for i in (0..3).rev() {
-        let s: f64 = (i + 1..3).map(|c| a[i][c] * x[c]).sum();
-        x[i] = (b[i] - s) / a[i][i];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn solve3_solves_and_refuses_a_singular_system() {
-        let a = [[4.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 2.0]];
-        let x = [1.0, -2.0, 0.5];
-        let b = [0, 1, 2].map(|i| a[i][0] * x[0] + a[i][1] * x[1] + a[i][2] * x[2]);
-        let got = solve3(a, b).unwrap();
-        for i in 0..3 {
-            assert!((got[i] - x[i]).abs() < 1e-12, "{got:?}");
-        }
-        assert!(solve3([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]], [1.0; 3]).is_none());
-    }
 
     fn frame(peg: [f64; 3]) -> crate::residual::FrameResidual {
         crate::residual::FrameResidual {
@@ -204,25 +161,6 @@ mod tests {
             force: 0.0,
             since_reversal_s: f64::INFINITY,
         }
-    }
-
-    /// Dense solve of `a x = b` (Gauss–Jordan), for the reference below.
-    fn solve_dense(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
-        let n = b.len();
-        for i in 0..n {
-            let p = (i..n).max_by(|&x, &y| a[x][i].abs().total_cmp(&a[y][i].abs())).unwrap();
-            a.swap(i, p);
-            b.swap(i, p);
-            let pivot = a[i].clone();
-            for r in (0..n).filter(|&r| r != i) {
-                let f = a[r][i] / pivot[i];
-                for (x, p) in a[r].iter_mut().zip(&pivot) {
-                    *x -= f * p;
-                }
-                b[r] -= f * b[i];
-            }
-        }
-        (0..n).map(|i| b[i] / a[i][i]).collect()
     }
 
     /// The profiled loss is the stroke's marginal χ² with the start unknown to its prior:
@@ -244,7 +182,7 @@ mod tests {
         let jac: Vec<[[f64; 3]; 3]> =
             (0..n).map(|_| [[0; 3]; 3].map(|row| row.map(|_: i32| 3.0 * next()))).collect();
         let e: Vec<f64> = (0..3 * n).map(|_| next()).collect();
-        let stroke = Stroke { first: 1, sigma: [0.1, 0.1, 1e-3], jac: jac.clone() };
+        let stroke = Stroke { first: 1, jac: jac.clone() };
         let sens = StartSensitivity { strokes: vec![stroke] };
         let mut r = Residual {
             frames: std::iter::once(frame([9.0, 9.0, 9.0]))
@@ -271,7 +209,7 @@ mod tests {
                     .collect()
             })
             .collect();
-        let x = solve_dense(m, e.clone());
+        let x = solve(m, e.clone()).unwrap();
         let marginal: f64 = e.iter().zip(&x).map(|(a, b)| a * b).sum();
         let plain: f64 = e.iter().map(|v| v * v).sum();
         assert!((profiled - marginal).abs() < 1e-9 * marginal, "{profiled} vs {marginal}");
