@@ -12,6 +12,7 @@ use super::fit::{Fit, fit, fit_where};
 use super::nominal::{Held, SupportFit, nominal_base};
 use super::objective::{loss, residual_vector, residuals};
 use super::options::Options;
+use super::polish::NearFloor;
 use super::predict::valid_over_batch;
 use super::replay::{ReplayOptions, settings_for};
 use super::residual::{Mse, Noise, Residual};
@@ -155,11 +156,16 @@ pub fn diagnose(
     // The settings' lengths are the paper's peg's: another part gets them scaled to its size,
     // and the trials' own registration tolerance.
     let replay = ReplayOptions { base: opts.settings.clone(), registration_tol: None };
-    let s = &settings_for(&replay, &train[0]);
+    let coarse = settings_for(&replay, &train[0]);
     let band = opts.floor_factor * (2.0 + if with_tip { 1.0 } else { 0.0 });
     progress("nominal support");
-    let held = Held { trials: heldout, settings: s, noise: &noise, with_tip };
+    let held = Held { trials: heldout, settings: &coarse, noise: &noise, with_tip };
     let (nominal, shifted, support_fit, fit_train) = nominal_base(&prior, train, &held, band, opts);
+    let at_floor = support_fit.kept_heldout_norm() <= band;
+    let near = NearFloor { prior: &prior, train, held: &held, band, opts };
+    let (nominal, support_fit, fit_train, settings) =
+        near.refit(nominal, support_fit, fit_train, progress);
+    let s = &settings;
     // The effects are fitted (and the nominal rescued, the uncertainties taken) on the
     // training trials with their start-pose sensitivity at the nominal fit.
     let train = &fit_train[..];
@@ -169,7 +175,6 @@ pub fn diagnose(
     // undo by a shift ([`Effect::acts_on_supports`]).
     // A nominal model already at the floor on the held-out trials leaves nothing for an
     // effect to explain (the verdict is `none` whatever they would fit): none is fitted.
-    let at_floor = support_fit.kept_heldout_norm() <= band;
     let mut fits = if at_floor {
         Vec::new()
     } else {

@@ -9,7 +9,7 @@
 //! ([`residual`], [`tip`], [`structure`]); the candidates ([`candidates`]), what the fits
 //! minimise ([`objective`]) and the fitter ([`fit`], on the minimisers of
 //! [`mesopush_ident::optim`]); where each search starts ([`starts`]); the verdict
-//! ([`decide`], [`adequacy`]) and the whole diagnosis ([`attribute`], [`options`]); its report
+//! ([`decide`], [`adequacy`]) and the whole diagnosis ([`attribute`], [`options`], [`polish`]); its report
 //! ([`report`]). Batches to test it on: [`synth`] (synthetic, one undeclared effect),
 //! [`rig_batch`] (through the whole simulated loop) and the experiment over both, [`confusion`].
 //!
@@ -30,6 +30,7 @@ pub mod memo;
 pub mod nominal;
 pub mod objective;
 pub mod options;
+pub mod polish;
 pub mod predict;
 pub mod replay;
 pub mod report;

@@ -215,6 +215,9 @@ pub struct SupportFit {
     pub heldout_norm: Vec<(&'static str, f64)>,
     /// Objective evaluations the free-support fits used.
     pub evals: usize,
+    /// The refit at a finer step, when the fit kept was within the floor band
+    /// ([`crate::polish`]).
+    pub polish: Option<crate::polish::Polish>,
 }
 
 /// The held-out trials and how their error is measured.
@@ -241,6 +244,9 @@ impl Held<'_> {
 impl SupportFit {
     /// The held-out error of the family kept, noise units.
     pub fn kept_heldout_norm(&self) -> f64 {
+        if let Some(p) = self.polish.as_ref().filter(|p| p.kept) {
+            return p.heldout_norm;
+        }
         self.heldout_norm.iter().find(|(f, _)| *f == self.family).map_or(f64::INFINITY, |p| p.1)
     }
 }
@@ -273,8 +279,12 @@ pub fn nominal_base(
     let mut shifted = fit_on(prior, &at(prior));
     let train = at(&shifted.model);
     let mut best = (held.norm(&shifted.model), shifted.clone());
-    let mut out =
-        SupportFit { family: "shifted", heldout_norm: vec![("shifted", best.0)], evals: 0 };
+    let mut out = SupportFit {
+        family: "shifted",
+        heldout_norm: vec![("shifted", best.0)],
+        evals: 0,
+        polish: None,
+    };
     for (family, free_loads) in [("three_points", false), ("free_loads", true)] {
         if best.0 <= band {
             break;

@@ -37,6 +37,10 @@ pub struct Options {
     /// ([`crate::start_pose`]): their tracker noise then cannot bend the fitted support.
     /// Default true (false: the loss of every fit is the plain prediction error).
     pub profile_start_poses: bool,
+    /// Simulator step, µm for the paper's peg (scaled to the part as `settings.step_um` is),
+    /// at which a nominal fit already within the floor band is polished ([`crate::polish`]);
+    /// 0 or not finer than `settings.step_um`: off. Default 1.
+    pub polish_step_um: f64,
 }
 
 impl Default for Options {
@@ -53,6 +57,7 @@ impl Default for Options {
             min_delta_bic: 10.0,
             ambiguity_ratio: 1.15,
             profile_start_poses: true,
+            polish_step_um: 1.0,
         }
     }
 }

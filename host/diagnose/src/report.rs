@@ -116,6 +116,15 @@ pub fn text(d: &Diagnosis) -> String {
         sf.family,
         tried.join(", ")
     );
+    if let Some(p) = &sf.polish {
+        s += &format!(
+            "  refitted at a {:.2} µm step (near the floor): {} {:.1} noise units, {}\n",
+            p.step_um,
+            p.family,
+            p.heldout_norm,
+            if p.kept { "kept" } else { "not kept (the coarse fit predicts better)" }
+        );
+    }
     let p = d.nominal.model.support.points_um;
     s += &format!(
         "  points [{:.0}, {:.0}] [{:.0}, {:.0}] [{:.0}, {:.0}] µm, μ_surface {:.3?}\n",

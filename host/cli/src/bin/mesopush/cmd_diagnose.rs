@@ -66,6 +66,11 @@ pub(crate) struct Budgets {
     /// the part's size).
     #[arg(long, default_value_t = Options::default().settings.step_um, value_parser = crate::ranges::step_um())]
     sim_step_um: f64,
+    /// Finer step, µm for the paper's peg, at which a nominal fit already within the floor
+    /// band is refitted before the verdict (docs/diagnose.md, "A finer step near the
+    /// floor"); 0 turns the polish off.
+    #[arg(long, default_value_t = Options::default().polish_step_um, value_parser = crate::ranges::length_um(1000.0))]
+    polish_step_um: f64,
 }
 
 impl Budgets {
@@ -77,6 +82,7 @@ impl Budgets {
             support_evals: self.support_evals,
             start_model,
             profile_start_poses: !self.plain_starts,
+            polish_step_um: self.polish_step_um,
             settings: mesopush_sim::SimSettings {
                 step_um: self.sim_step_um,
                 ..Options::default().settings
