@@ -9,6 +9,7 @@ use super::candidates::{Effect, NOMINAL, base_model, mean_mu_surface};
 use super::data::TrialData;
 use super::decide::{Ambiguity, EffectScore, Verdict, decide, tip_winner, training_lead};
 use super::fit::{Fit, fit, fit_where};
+use super::free_support::{refit_with_free_support, training_lead_index};
 use super::nominal::{Held, SupportFit, nominal_base};
 use super::objective::{loss, residual_vector, residuals};
 use super::options::Options;
@@ -193,6 +194,12 @@ pub fn diagnose(
                 *f = g;
             }
         }
+    }
+    let lead = training_lead_index(&fits, &bic, bic(&nominal), opts.min_delta_bic);
+    if let Some(i) = lead.filter(|_| opts.refit_lead_support) {
+        progress("training lead, support points free");
+        let ok = |m: &Model| valid_over_batch(m, last_index);
+        fits[i] = refit_with_free_support(&fits[i], train, s, &noise, &ok, opts.effect_evals);
     }
     let nominal = rescue_nominal(nominal, &fits, train, s, &noise, opts.nominal_evals);
     let before = residuals(heldout, &nominal.model, s)?;

@@ -25,6 +25,7 @@ pub mod decide;
 pub mod error;
 pub mod figure;
 pub mod fit;
+pub mod free_support;
 pub mod heldout;
 pub mod memo;
 pub mod nominal;

@@ -41,6 +41,9 @@ pub struct Options {
     /// at which a nominal fit already within the floor band is polished ([`crate::polish`]);
     /// 0 or not finer than `settings.step_um`: off. Default 1.
     pub polish_step_um: f64,
+    /// Whether the effect leading on the training trials is refitted with the three support
+    /// points free as well ([`crate::free_support`]). Default true.
+    pub refit_lead_support: bool,
 }
 
 impl Default for Options {
@@ -58,6 +61,7 @@ impl Default for Options {
             ambiguity_ratio: 1.15,
             profile_start_poses: true,
             polish_step_um: 1.0,
+            refit_lead_support: true,
         }
     }
 }

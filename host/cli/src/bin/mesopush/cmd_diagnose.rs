@@ -71,6 +71,11 @@ pub(crate) struct Budgets {
     /// floor"); 0 turns the polish off.
     #[arg(long, default_value_t = Options::default().polish_step_um, value_parser = crate::ranges::length_um(1000.0))]
     polish_step_um: f64,
+    /// Fit the effect that leads on the training trials about the nominal support only, as
+    /// every other effect (docs/diagnose.md; for comparison): by default it is refitted with
+    /// the three support points free as well.
+    #[arg(long)]
+    fixed_lead_support: bool,
 }
 
 impl Budgets {
@@ -83,6 +88,7 @@ impl Budgets {
             start_model,
             profile_start_poses: !self.plain_starts,
             polish_step_um: self.polish_step_um,
+            refit_lead_support: !self.fixed_lead_support,
             settings: mesopush_sim::SimSettings {
                 step_um: self.sim_step_um,
                 ..Options::default().settings
