@@ -3,7 +3,7 @@
 //! The replays step the probe `step_um` at a time (5 µm for the paper's peg). That error is
 //! small against a missing effect, but not against the measurement floor: the independent
 //! generator's own truth, replayed by the simulator, predicts held-out clean trials at
-//! 1.14–1.83 × the floor with 5 µm steps and 1.03–1.46 × with 1 µm steps (docs/diagnose.md,
+//! 1.12–1.78 × the floor with 5 µm steps and 1.03–1.42 × with 1 µm steps (docs/diagnose.md,
 //! "A finer step near the floor"). When the nominal fit is already within the floor band,
 //! the whole nominal fit ([`crate::nominal::nominal_base`]) is done again at
 //! [`crate::Options::polish_step_um`] and kept when it predicts the held-out trials better
