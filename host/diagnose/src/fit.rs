@@ -66,7 +66,8 @@ pub struct Fit {
     pub evals: usize,
 }
 
-fn clamp(params: &[Param], v: &[f64]) -> Vec<f64> {
+/// `v` clamped into each parameter's bounds.
+pub(crate) fn clamp(params: &[Param], v: &[f64]) -> Vec<f64> {
     v.iter().zip(params).map(|(x, p)| x.clamp(p.lo, p.hi)).collect()
 }
 

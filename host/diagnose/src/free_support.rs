@@ -15,7 +15,7 @@
 
 use super::candidates::Effect;
 use super::data::TrialData;
-use super::fit::Fit;
+use super::fit::{Fit, clamp};
 use super::objective::{loss, residual_vector};
 use super::residual::Noise;
 use mesopush_ident::optim::{LmSettings, levenberg_marquardt};
@@ -49,9 +49,7 @@ pub fn refit_with_free_support(
 ) -> Fit {
     let params = lead.candidate.params();
     let k = params.len();
-    let clamp = |v: &[f64]| -> Vec<f64> {
-        v.iter().zip(&params).map(|(x, p)| x.clamp(p.lo, p.hi)).collect()
-    };
+    let clamp = |v: &[f64]| clamp(&params, v);
     let model_at = |x: &[f64]| -> Option<(Model, Model)> {
         let base = moved(&lead.base, &x[k..])?;
         let m = lead.candidate.apply(&base, &clamp(&x[..k]));
