@@ -160,8 +160,15 @@ impl Effect {
                 &P
             }
             Effect::Adhesion => {
-                const P: [Param; 1] =
-                    [p("pull_off_weight", 0.0, 3.0, 0.05, &[0.05, 0.15, 0.3, 0.5, 0.8, 1.5])];
+                // The diagnosis's own adhesion: a pull of up to `pull_off_weight` once the
+                // probe is within `range_um` of the peg, sliding along the edge against
+                // `mu_bond` (large: a bond that sticks) — the drag's reach, strength and
+                // grip all free, not a generator's defaults.
+                const P: [Param; 3] = [
+                    p("pull_off_weight", 0.0, 3.0, 0.05, &[0.15, 0.3, 0.8]),
+                    p("range_um", 0.0, 30.0, 1.0, &[2.0, 6.0]),
+                    p("mu_bond", 0.0, 10.0, 0.2, &[0.5, 3.0]),
+                ];
                 &P
             }
             Effect::FrictionPatch => {
@@ -214,7 +221,8 @@ impl Effect {
             Effect::Scale => fx.scale_error = [e[0], e[1]],
             Effect::Compliance => fx.probe_compliance_um_per_weight = Some(e[0]),
             Effect::Adhesion => {
-                fx.adhesion = Some(Adhesion { pull_off_weight: e[0], range_um: 2.0 })
+                fx.adhesion =
+                    Some(Adhesion { pull_off_weight: e[0], range_um: e[1], mu_bond: Some(e[2]) })
             }
             Effect::FrictionPatch => {
                 fx.friction_patch = Some(FrictionPatch {

@@ -69,8 +69,11 @@ pub fn realistic_effect(c: Effect, rng: &mut impl Rng) -> Effects {
         }
         Effect::Compliance => e.probe_compliance_um_per_weight = Some(rng.random_range(20.0..60.0)),
         Effect::Adhesion => {
-            e.adhesion =
-                Some(Adhesion { pull_off_weight: rng.random_range(0.3..0.6), range_um: 2.0 })
+            e.adhesion = Some(Adhesion {
+                pull_off_weight: rng.random_range(0.3..0.6),
+                range_um: 2.0,
+                mu_bond: None,
+            })
         }
         Effect::FrictionPatch => {
             // A patch over the right or the lower part of the workspace.

@@ -73,6 +73,11 @@ pub struct Adhesion {
     /// Gap below which the probe counts as stuck to the peg, µm. Default 2.
     #[serde(default = "default_adhesion_range")]
     pub range_um: f64,
+    /// Friction coefficient of the pulling contact along the peg's edge: how hard the bond
+    /// resists sliding while it drags (large: the bond sticks). Absent: the probe's μ
+    /// (`mu_probe`), a pull that slides like a push.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mu_bond: Option<f64>,
 }
 
 fn default_adhesion_range() -> f64 {
@@ -161,9 +166,13 @@ impl Effects {
             && !(a.pull_off_weight.is_finite()
                 && (0.0..=10.0).contains(&a.pull_off_weight)
                 && a.range_um.is_finite()
-                && (0.0..=100.0).contains(&a.range_um))
+                && (0.0..=100.0).contains(&a.range_um)
+                && a.mu_bond.is_none_or(|m| m.is_finite() && (0.0..=100.0).contains(&m)))
         {
-            return bad("adhesion", "needs pull_off_weight in [0, 10] and range_um in [0, 100]");
+            return bad(
+                "adhesion",
+                "needs pull_off_weight in [0, 10], range_um in [0, 100] and mu_bond in [0, 100]",
+            );
         }
         if let Some(p) = &self.friction_patch {
             let ok = (0..2).all(|k| p.min_um[k].is_finite() && p.max_um[k].is_finite())
@@ -202,7 +211,7 @@ mod tests {
             backlash_um: [10.0, 5.0],
             camera_latency_us: 50_000.0,
             scale_error: [0.02, -0.01],
-            adhesion: Some(Adhesion { pull_off_weight: 0.3, range_um: 2.0 }),
+            adhesion: Some(Adhesion { pull_off_weight: 0.3, range_um: 2.0, mu_bond: None }),
             friction_patch: Some(FrictionPatch {
                 min_um: [0.0, 0.0],
                 max_um: [1000.0, 800.0],
@@ -222,7 +231,7 @@ mod tests {
         let e = Effects { backlash_um: [-1.0, 0.0], ..Effects::default() };
         assert!(e.validate().unwrap_err().to_string().contains("backlash_um"));
         let e = Effects {
-            adhesion: Some(Adhesion { pull_off_weight: f64::NAN, range_um: 1.0 }),
+            adhesion: Some(Adhesion { pull_off_weight: f64::NAN, range_um: 1.0, mu_bond: None }),
             ..Effects::default()
         };
         assert!(e.validate().unwrap_err().to_string().contains("adhesion"));

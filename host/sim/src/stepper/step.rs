@@ -11,7 +11,8 @@ use nalgebra::Rotation2;
 impl Simulator {
     /// One step without splitting: the pusher moves by `delta.0` and turns by `delta.1`.
     /// With adhesion on, a one-disc probe retracting from a peg it touches first tries to
-    /// drag the peg (the contact mirrored, pulling); the drag holds when it needs no more
+    /// drag the peg (the contact mirrored, pulling, sliding along the edge against the
+    /// bond's μ); the drag holds when it needs no more
     /// than the pull-off force.
     pub(super) fn solve_step(
         &mut self,
@@ -41,26 +42,29 @@ impl Simulator {
         {
             let before = *state;
             let pull = Contact { normal: -probe.normal, gap_um: 0.0, ..*probe };
-            match self.solve_contacts(state, &peg, &[Some(pull)], motion, margin) {
+            let mu = a.mu_bond.unwrap_or(self.model.mu_probe);
+            match self.solve_contacts(state, &peg, &[Some(pull)], mu, motion, margin) {
                 Ok(info) if info.probe_force <= a.pull_off_weight => return Ok(info),
                 _ => *state = before,
             }
         }
-        self.solve_contacts(state, &peg, &probes, motion, margin)
+        self.solve_contacts(state, &peg, &probes, self.model.mu_probe, motion, margin)
     }
 
-    /// Solves one step with the pusher contacts `probes` and the walls near `peg`.
+    /// Solves one step with the pusher contacts `probes` (friction coefficient `mu_probe`)
+    /// and the walls near `peg`.
     fn solve_contacts(
         &mut self,
         state: &mut SimState,
         peg: &ConvexPolygon,
         probes: &[Option<Contact>],
+        mu_probe: f64,
         motion: PusherMotion,
         margin: f64,
     ) -> Result<StepInfo, Error> {
         let mut info = StepInfo::default();
         self.contacts.clear();
-        self.contacts.extend(probes.iter().flatten().map(|c| (*c, self.model.mu_probe)));
+        self.contacts.extend(probes.iter().flatten().map(|c| (*c, mu_probe)));
         let n_probes = self.contacts.len();
         self.scratch.clear();
         wall_contacts(peg, &self.fixture.walls, margin, &mut self.scratch);
