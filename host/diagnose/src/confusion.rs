@@ -57,7 +57,9 @@ impl ConfusionSettings {
 /// One diagnosed batch.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ConfusionRow {
-    /// The effect the batch carries.
+    /// The effect the batch carries (serialised as the table's row label: `clean` for the
+    /// control).
+    #[serde(serialize_with = "truth_label")]
     pub truth: Effect,
     /// The batch's seed.
     pub seed: u64,
@@ -72,7 +74,8 @@ pub struct ConfusionRow {
 /// A batch that could not be made or diagnosed.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ConfusionFailure {
-    /// The effect the batch was to carry.
+    /// The effect the batch was to carry (serialised as the table's row label).
+    #[serde(serialize_with = "truth_label")]
     pub truth: Effect,
     /// The batch's seed.
     pub seed: u64,
@@ -83,7 +86,8 @@ pub struct ConfusionFailure {
 /// What the experiment found.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ConfusionReport {
-    /// The true effects, in the order run (the matrix's rows).
+    /// The true effects, in the order run (the matrix's rows; serialised as their labels).
+    #[serde(serialize_with = "truth_labels")]
     pub truths: Vec<Effect>,
     /// Every diagnosed batch, in the order run.
     pub rows: Vec<ConfusionRow>,
@@ -185,6 +189,14 @@ pub fn run(
 /// A true effect's row label: `clean` for the control.
 fn label(t: Effect) -> &'static str {
     if t == Effect::Nominal { "clean" } else { t.name() }
+}
+
+fn truth_label<S: serde::Serializer>(t: &Effect, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(label(*t))
+}
+
+fn truth_labels<S: serde::Serializer>(t: &[Effect], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(t.iter().map(|t| label(*t)))
 }
 
 impl ConfusionReport {

@@ -301,6 +301,10 @@ struct ConfusionArgs {
     /// Strokes per synthetic trial.
     #[arg(long, default_value_t = 3, value_parser = crate::ranges::count(1, 1000))]
     strokes: usize,
+    /// Print one JSON object (the true effects, a row per batch with its verdict and
+    /// held-out errors before and after, the failed batches) instead of the tables.
+    #[arg(long)]
+    json: bool,
     #[command(flatten)]
     budgets: Budgets,
 }
@@ -318,11 +322,15 @@ fn run_confusion(args: &ConfusionArgs) -> Result<()> {
     let started = std::time::Instant::now();
     let pb = ProgressBar::new((settings.truths.len() * settings.seeds) as u64);
     let report = confusion::run(&settings, &mut |truth, seed, outcome| {
-        eprintln!("{}", confusion::batch_line(truth, seed, outcome));
+        pb.suspend(|| eprintln!("{}", confusion::batch_line(truth, seed, outcome)));
         pb.inc(1);
     })?;
     pb.finish_and_clear();
     eprintln!("{} batches in {:.0} s", report.rows.len(), started.elapsed().as_secs_f64());
-    print!("{}", report.text());
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", report.text());
+    }
     Ok(())
 }
