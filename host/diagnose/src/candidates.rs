@@ -114,6 +114,15 @@ impl Effect {
         matches!(self, Effect::FrictionPatch | Effect::SpeedFriction | Effect::SupportDrift)
     }
 
+    /// Whether the effect acts between the command and the image on the free probe too (the
+    /// stage's lost motion, the camera's clock or scale): it then moves the imaged tip
+    /// wherever the tip is, whatever the part does, so the nominal model's tip residual
+    /// carries its signature. (The needle's compliance shows only under load; adhesion and
+    /// the supports' effects move the part, not the tip.)
+    pub fn shows_in_free_tip(self) -> bool {
+        matches!(self, Effect::Backlash | Effect::Latency | Effect::Scale)
+    }
+
     /// Library name (as in `--json` and the docs).
     pub fn name(self) -> &'static str {
         match self {
