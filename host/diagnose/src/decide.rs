@@ -78,9 +78,9 @@ pub fn training_lead(scores: &[EffectScore], opts: &Options) -> Option<Effect> {
 /// The verdict from the scores (nominal first, then one per fit in `fits`' order) and the
 /// nominal held-out error `e0` against the `floor` (noise units): `none` at the floor; the
 /// effect that wins on BIC and on held-out error by `min_gain` (an effect that moves the free
-/// tip, on the tip's held-out error too: [`tip_agrees`]), unless another qualifying
-/// effect ties with it well above the floor (`ambiguity_ratio`) or the training trials favour
-/// another effect by more than `min_delta_bic`; else `unexplained`.
+/// tip, [`Effect::shows_in_free_tip`], on the tip's held-out error too), unless another
+/// qualifying effect ties with it well above the floor (`ambiguity_ratio`) or the training
+/// trials favour another effect by more than `min_delta_bic`; else `unexplained`.
 pub fn decide<'f>(
     scores: &[EffectScore],
     fits: &'f [Fit],
