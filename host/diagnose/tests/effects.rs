@@ -7,23 +7,31 @@ use mesopush_diagnose::data::open_plate;
 use mesopush_sim::effects::{Adhesion, FrictionPatch};
 use mesopush_sim::{Model, ProbePoint, SimSettings, Simulator, follow_path};
 
-/// Push the peg's short side by 200 µm along +x, then retract 200 µm.
-fn push_and_retract(model: Model) -> (Pose, Pose) {
+/// The peg at rest at (2000, 1200) µm, level; the probe from `pts[0]` through each of `pts` in
+/// 100 steps of 10 ms: the peg after the first leg and at the end.
+fn follow(model: Model, pts: &[[f64; 2]]) -> (Pose, Pose) {
     let start = Pose::new(2000.0, 1200.0, 0.0);
-    let x0 = 2000.0 - 807.5 - 12.5 - 50.0;
-    let pts = [x0, x0 + 250.0, x0 + 50.0];
     let mut path = vec![];
     let mut t = 0.0;
     for w in pts.windows(2) {
         for k in 0..=100 {
-            let x = w[0] + (w[1] - w[0]) * k as f64 / 100.0;
-            path.push(ProbePoint::new(t, Vec2::new(x, 1200.0 + 100.0)));
+            let f = k as f64 / 100.0;
+            let p = Vec2::new(w[0][0] + (w[1][0] - w[0][0]) * f, w[0][1] + (w[1][1] - w[0][1]) * f);
+            path.push(ProbePoint::new(t, p));
             t += 0.01;
         }
     }
     let mut sim = Simulator::new(model, open_plate(), SimSettings::default()).unwrap();
     let rep = follow_path(&mut sim, start, &path).unwrap();
     (rep.samples[100].peg, rep.samples.last().unwrap().peg)
+}
+
+/// The probe's start, 50 µm clear of the peg's short side.
+const X0_UM: f64 = 2000.0 - 807.5 - 12.5 - 50.0;
+
+/// Push the peg's short side by 200 µm along +x, then retract 200 µm.
+fn push_and_retract(model: Model) -> (Pose, Pose) {
+    follow(model, &[[X0_UM, 1300.0], [X0_UM + 250.0, 1300.0], [X0_UM + 50.0, 1300.0]])
 }
 
 #[test]
@@ -60,22 +68,7 @@ fn a_sticky_patch_under_the_peg_changes_its_motion() {
 /// Push along +x by 250 µm, then retract 200 µm back along −x while moving 100 µm sideways
 /// (+y): the peg after the push and at the end.
 fn push_and_retract_sideways(model: Model) -> (Pose, Pose) {
-    let start = Pose::new(2000.0, 1200.0, 0.0);
-    let x0 = 2000.0 - 807.5 - 12.5 - 50.0;
-    let pts = [[x0, 1300.0], [x0 + 250.0, 1300.0], [x0 + 50.0, 1400.0]];
-    let mut path = vec![];
-    let mut t = 0.0;
-    for w in pts.windows(2) {
-        for k in 0..=100 {
-            let f = k as f64 / 100.0;
-            let p = Vec2::new(w[0][0] + (w[1][0] - w[0][0]) * f, w[0][1] + (w[1][1] - w[0][1]) * f);
-            path.push(ProbePoint::new(t, p));
-            t += 0.01;
-        }
-    }
-    let mut sim = Simulator::new(model, open_plate(), SimSettings::default()).unwrap();
-    let rep = follow_path(&mut sim, start, &path).unwrap();
-    (rep.samples[100].peg, rep.samples.last().unwrap().peg)
+    follow(model, &[[X0_UM, 1300.0], [X0_UM + 250.0, 1300.0], [X0_UM + 50.0, 1400.0]])
 }
 
 /// The bond's own friction: a bond that sticks carries the peg sideways with a probe that
