@@ -277,6 +277,11 @@ mod tests {
         EffectScore { heldout_tip_norm: tip, ..score_of(c, bic, heldout_norm) }
     }
 
+    /// The same scores from trials that image no tip.
+    fn without_tips(scores: &[EffectScore]) -> Vec<EffectScore> {
+        scores.iter().map(|s| EffectScore { heldout_tip_norm: f64::NAN, ..s.clone() }).collect()
+    }
+
     /// Latency batch 0 of the independent generator (seed 1): the free-support nominal model
     /// predicts the held-out poses at 430 noise units, so the pose channel ranked compliance
     /// (145) above latency (214) and the training trials favoured latency: `unexplained`. The
@@ -305,10 +310,7 @@ mod tests {
         calm[0].heldout_tip_norm = 1.2;
         assert_eq!(tip_winner(&calm, &fits, &opts).map(|f| f.candidate), None);
         // Without imaged tips (NaN): never.
-        let none: Vec<EffectScore> = scores
-            .iter()
-            .map(|s| EffectScore { heldout_tip_norm: f64::NAN, ..s.clone() })
-            .collect();
+        let none = without_tips(&scores);
         assert_eq!(tip_winner(&none, &fits, &opts).map(|f| f.candidate), None);
     }
 
@@ -334,10 +336,7 @@ mod tests {
         let (v, best, _) = decide(&confirmed, &fits, 431.3, 3.0, &opts);
         assert_eq!((v, best.map(|f| f.candidate)), (Verdict::Effect, Some(Effect::Scale)));
         // Without imaged tips the poses decide, as before.
-        let blind: Vec<EffectScore> = scores
-            .iter()
-            .map(|s| EffectScore { heldout_tip_norm: f64::NAN, ..s.clone() })
-            .collect();
+        let blind = without_tips(&scores);
         let (v, best, _) = decide(&blind, &fits, 431.3, 3.0, &opts);
         assert_eq!((v, best.map(|f| f.candidate)), (Verdict::Effect, Some(Effect::Scale)));
         // An effect that moves the part, not the tip, is not asked to move the tip.
