@@ -21,6 +21,15 @@ enum SupportTerm {
     Exact(Linearised),
 }
 
+/// Averaged iterations allowed after Newton's method fails (each halves the distance to
+/// the answer, about: 60 take an error of a whole step far below [`AVERAGED_TOL`]).
+const AVERAGED_ITERATIONS: usize = 60;
+
+/// The averaged iterations stop when the motion changes by less than this fraction of the
+/// step (0.5 nm per 5 µm step): far below the tracker's noise, and looser than Newton's
+/// `newton_tol`, which a linear rate would reach only slowly.
+const AVERAGED_TOL: f64 = 1e-4;
+
 /// Largest component difference of two motions.
 fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max)
@@ -52,12 +61,16 @@ impl Simulator {
         };
         // Start from the last step's motion when this step continues it (scaled to this
         // step's probe travel), else from the paper's polygonal cones (robust where nothing
-        // slides, which a tangent of |v| taken at a slip cannot see); if Newton's method from
-        // the carried motion fails, it starts again from the polygon.
+        // slides, which a tangent of |v| taken at a slip cannot see). Where Newton's method
+        // fails, averaged iterations follow from the same start; if both fail from the
+        // carried motion, it starts again from the polygon.
         let carried = self.newton_carry.filter(|(p, _, _)| *p == state.peg);
         if let Some((_, u, travel)) = carried.filter(|c| c.2 > 0.0) {
             let u = u.map(|x| x * travel_um / travel);
             if let Some(lay) = self.newton(&ctx, &exact, u, info) {
+                return Ok(lay);
+            }
+            if let Some(lay) = self.averaged(&ctx, &exact, u, info) {
                 return Ok(lay);
             }
         }
@@ -66,8 +79,10 @@ impl Simulator {
         if let Some(lay) = self.newton(&ctx, &exact, u, info) {
             return Ok(lay);
         }
-        // A contact on the edge of its friction cone can make the linearised answer jump, so
-        // that no step shrinks Newton's: fall back to the polygonal cones turned against the
+        if let Some(lay) = self.averaged(&ctx, &exact, u, info) {
+            return Ok(lay);
+        }
+        // Neither converged: fall back to the polygonal cones turned against the
         // polygon's slips (an LCP, always solvable), and say so.
         info.newton_fallback = true;
         self.newton_carry = None;
@@ -111,11 +126,45 @@ impl Simulator {
                 rho = (8.0 * rho).max(rho0);
             }
         }
+        self.carry(ctx, full);
+        Some(lay)
+    }
+
+    /// Averaged iterations of the same map, `u ← u + ½ (full(u) − u)` (Krasnosel'skii–Mann),
+    /// from `u`, when Newton's method fails: a contact on the edge of its friction cone can
+    /// make the linearised answer jump between two sides of the answer so that no Newton step
+    /// shrinks (the independent generator's clean batch 6409012635243707006: every step of a
+    /// sliding push alternated, and the polygonal fallback turned the peg along another
+    /// branch, 40 µm off within a stroke). Averaging converges linearly to the same fixed
+    /// point — the exact answer — within [`AVERAGED_ITERATIONS`] to [`AVERAGED_TOL`] of the
+    /// step; `None` when it does not.
+    fn averaged(
+        &mut self,
+        ctx: &StepCtx<'_>,
+        exact: &Supports,
+        mut u: [f64; 3],
+        info: &mut StepInfo,
+    ) -> Option<Layout> {
+        let tol = AVERAGED_TOL.max(self.settings.newton_tol) * self.settings.step_um;
+        for _ in 0..AVERAGED_ITERATIONS {
+            let (lay, full) = self.newton_map(ctx, exact, &u, 0.0, info).ok()?;
+            if distance(&full, &u) <= tol {
+                self.carry(ctx, full);
+                return Some(lay);
+            }
+            for (x, f) in u.iter_mut().zip(full) {
+                *x += 0.5 * (f - *x);
+            }
+        }
+        None
+    }
+
+    /// Keeps the step's answer `full` to start the next step's Newton's method from.
+    fn carry(&mut self, ctx: &StepCtx<'_>, full: [f64; 3]) {
         let p = &ctx.state.peg;
         let end =
             Pose::new(p.x_um + full[0], p.y_um + full[1], p.theta_rad + full[2] / self.char_len_um);
         self.newton_carry = Some((end, full, ctx.travel_um));
-        Some(lay)
     }
 
     /// One Newton iteration: the step's LCP with the support friction linearised at `u`,
