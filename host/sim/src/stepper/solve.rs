@@ -61,16 +61,14 @@ impl Simulator {
         };
         // Start from the last step's motion when this step continues it (scaled to this
         // step's probe travel), else from the paper's polygonal cones (robust where nothing
-        // slides, which a tangent of |v| taken at a slip cannot see). Where Newton's method
-        // fails, averaged iterations follow from the same start; if both fail from the
-        // carried motion, it starts again from the polygon.
+        // slides, which a tangent of |v| taken at a slip cannot see); if Newton's method from
+        // the carried motion fails, it starts again from the polygon, and where that fails
+        // too, averaged iterations follow from the polygon's motion (so every step Newton's
+        // method solved before they existed is solved as it was).
         let carried = self.newton_carry.filter(|(p, _, _)| *p == state.peg);
         if let Some((_, u, travel)) = carried.filter(|c| c.2 > 0.0) {
             let u = u.map(|x| x * travel_um / travel);
             if let Some(lay) = self.newton(&ctx, &exact, u, info) {
-                return Ok(lay);
-            }
-            if let Some(lay) = self.averaged(&ctx, &exact, u, info) {
                 return Ok(lay);
             }
         }
