@@ -264,9 +264,10 @@ fn prior_model(first: &TrialData, opts: &Options) -> Result<Model, Error> {
 }
 
 fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bool) -> EffectScore {
-    let heldout_mse = match residuals(heldout, &f.model, s) {
-        Ok(r) => Mse::of(&r),
-        Err(_) => Mse { xy_um2: f64::INFINITY, theta_rad2: f64::INFINITY, tip_um2: f64::INFINITY },
+    let inf = Mse { xy_um2: f64::INFINITY, theta_rad2: f64::INFINITY, tip_um2: f64::INFINITY };
+    let (heldout_mse, per_trial) = match residuals(heldout, &f.model, s) {
+        Ok(r) => (Mse::of(&r), r.iter().map(|t| Mse::of(std::slice::from_ref(t))).collect()),
+        Err(_) => (inf, vec![inf; heldout.len()]),
     };
     let names = f.candidate.params();
     EffectScore {
@@ -279,6 +280,7 @@ fn score(f: &Fit, heldout: &[TrialData], s: &SimSettings, noise: &Noise, tip: bo
         bic: bic(f),
         heldout: heldout_mse,
         heldout_norm: heldout_mse.normalised(noise, tip),
+        heldout_per_trial_norm: per_trial.iter().map(|m: &Mse| m.normalised(noise, tip)).collect(),
         heldout_tip_norm: if tip {
             heldout_mse.tip_um2 / (2.0 * noise.tip_um.powi(2))
         } else {

@@ -33,6 +33,9 @@ pub struct EffectScore {
     pub heldout: Mse,
     /// Held-out error in noise units.
     pub heldout_norm: f64,
+    /// Held-out error of each held-out trial alone, noise units, in the held-out order
+    /// (infinite for a trial the model cannot simulate).
+    pub heldout_per_trial_norm: Vec<f64>,
     /// Held-out error of the imaged probe tip alone, noise units (1 at the floor; NaN when
     /// the trials image no tip).
     pub heldout_tip_norm: f64,
@@ -189,6 +192,7 @@ mod tests {
             bic,
             heldout,
             heldout_norm,
+            heldout_per_trial_norm: vec![],
             heldout_tip_norm: f64::NAN,
         }
     }

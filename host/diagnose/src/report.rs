@@ -215,6 +215,7 @@ pub fn json(d: &Diagnosis) -> Value {
         "heldout": d.split.1,
         "candidates": d.scores.iter().map(|s| json!({
             "name": s.candidate.name(), "bic": s.bic, "heldout_norm": s.heldout_norm,
+            "heldout_per_trial_norm": s.heldout_per_trial_norm,
             "heldout": s.heldout, "parameters": param_map(&s.params)})).collect::<Vec<_>>(),
         "support_fit": d.support_fit,
         "nominal_model": {"mu_probe": d.nominal.model.mu_probe,

@@ -69,8 +69,26 @@ fn run(effect: Effect, seed: u64) -> mesopush_diagnose::Diagnosis {
 fn latency_is_named_and_clean_data_gives_none() {
     let d = run(Effect::Latency, 7);
     assert_eq!(d.effect, Some(Effect::Latency));
+    per_trial_norms_make_up_the_heldout_norm(&d);
     let d = run(Effect::Nominal, 8);
     assert_eq!(d.verdict, Verdict::None);
+}
+
+/// Every candidate reports each held-out trial's error alone, the pooled held-out error lies
+/// between them, and the nominal's are its held-out residuals' own, trial by trial.
+fn per_trial_norms_make_up_the_heldout_norm(d: &mesopush_diagnose::Diagnosis) {
+    use mesopush_diagnose::residual::Mse;
+    for s in &d.scores {
+        let e = &s.heldout_per_trial_norm;
+        assert_eq!(e.len(), d.heldout.len(), "{:?}", s.candidate);
+        let (lo, hi) = e.iter().fold((f64::INFINITY, 0.0f64), |(l, h), x| (l.min(*x), h.max(*x)));
+        assert!(lo <= s.heldout_norm && s.heldout_norm <= hi, "{:?}: {e:?}", s.candidate);
+    }
+    let nominal = &d.scores[0].heldout_per_trial_norm;
+    for (r, e) in d.residuals.0.iter().zip(nominal) {
+        let own = Mse::of(std::slice::from_ref(r)).normalised(&d.noise, true);
+        assert!((own - e).abs() <= 1e-12 * own, "{own} against {e}");
+    }
 }
 
 /// Multiple shooting loses nothing when the model is right: a noise-free trial of 3 strokes,
