@@ -53,7 +53,7 @@ fn clean_batch_reaches_the_floor(world: &str, seed: u64) {
 }
 
 #[test]
-#[ignore = "peg seed 101: 5.5x the floor (issue 18 point 1 open)"]
+#[ignore = "peg seed 101: 2.5x the floor (issue 18 point 1 open)"]
 fn a_clean_peg_batch_from_another_simulator_is_fitted_to_the_floor() {
     clean_batch_reaches_the_floor("peg", 101);
 }
