@@ -216,8 +216,9 @@ fn the_replay_budget_ends_a_robust_search_and_a_wall_clock_limit_says_it_stopped
     let err = String::from_utf8_lossy(&tiny.stderr);
     assert_eq!(tiny.status.code(), Some(2), "{err}");
     assert!(err.contains("max_replays") && err.contains("at least"), "{err}");
-    // With two stages the first gets half: a budget that holds one stage but not half of it
-    // for the first of two is refused the same way, before any work.
+    // With two stages the first gets its share (0.35 by default): a budget that holds one
+    // stage but not that share of it for the first of two is refused the same way, before
+    // any work.
     let one = json(small_robust(&out, 2, &["--from-shipped"]))["replays"].as_u64().unwrap();
     let half = small_robust(
         &out,
@@ -227,6 +228,22 @@ fn the_replay_budget_ends_a_robust_search_and_a_wall_clock_limit_says_it_stopped
     let err = String::from_utf8_lossy(&half.stderr);
     assert_eq!(half.status.code(), Some(2), "{err}");
     assert!(err.contains("max_replays") && err.contains("two stages"), "{err}");
+    // The share decides stage 1's budget: of 420 replays, 0.35 (147) holds one generation
+    // of this search's stage 1, 0.5 (210) both.
+    for (share, generations) in [("0.35", 1), ("0.5", 2)] {
+        let args = ["--from-shipped", "--wall-press", "--max-replays", "420"];
+        let v = json(small_robust(&out, 2, &[&args[..], &["--first-stage-share", share]].concat()));
+        assert_eq!(v["stage2"]["first"]["generations"].as_u64(), Some(generations), "{v}");
+        assert_eq!(v["first_stage_share"].as_f64(), share.parse().ok(), "{v}");
+    }
+    // A share outside [0.05, 0.95] is refused by name.
+    for bad in ["0", "1", "NaN"] {
+        let args = ["--from-shipped", "--wall-press", "--first-stage-share", bad];
+        let o = small_robust(&out, 2, &args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {err}");
+        assert!(err.contains("--first-stage-share") && err.contains("0.95"), "{bad}: {err}");
+    }
     // A wall-clock limit shorter than one generation stops the search after its first and
     // says so.
     let timed = json(small_robust(&out, 2, &["--from-shipped", "--time-limit-s", "0.000001"]));
@@ -260,6 +277,7 @@ fn a_wall_press_stage_presses_before_the_first_move_and_its_plan_wins_only_on_mo
     let starts_with_press = plan.moves_um[0][1] > 700.0;
     assert_eq!(starts_with_press, second > first, "{v}\n{:?}", plan.moves_um);
     assert!(v["total_replays"].as_u64().unwrap() <= 4000, "{v}");
+    assert_eq!(v["first_stage_share"].as_f64(), Some(0.35), "{v}");
     // Without the press the same two stages run, none is inserted.
     let o = small_robust(&out, 2, &["--from-shipped", "--refine-moves", "--max-replays", "4000"]);
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();

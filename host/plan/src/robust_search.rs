@@ -13,7 +13,9 @@ use crate::pushes::pushing_moves;
 use crate::robust::{RobustResult, design_robust};
 use crate::robust_settings::RobustSettings;
 use crate::skeleton::Skeleton;
-use crate::staged::{Refine, Stage2, Stage2Input, first_stage_budget, second_stage};
+use crate::staged::{
+    DEFAULT_FIRST_STAGE_SHARE, Refine, Stage2, Stage2Input, first_stage_budget, second_stage,
+};
 use crate::world::UncertainWorld;
 use mesopush_sim::plan::PegStart;
 use mesopush_sim::{Overload, Plan, Simulator, replay};
@@ -60,8 +62,13 @@ pub struct RobustSearch {
     /// A second stage after the design over the start family ([`crate::staged`]): search
     /// the moves of its plan again, with the best-screened press against a wall inserted
     /// ([`Refine::WallPress`]) or as it is ([`Refine::Moves`]); the two stages share
-    /// [`RobustSettings::max_replays`] (stage 1 gets half). Default none: one stage.
+    /// [`RobustSettings::max_replays`] (stage 1 gets [`RobustSearch::first_stage_share`]).
+    /// Default none: one stage.
     pub refine: Option<Refine>,
+    /// Stage 1's share of [`RobustSettings::max_replays`] when there are two stages, in
+    /// [0.05, 0.95]. Default [`DEFAULT_FIRST_STAGE_SHARE`] (0.35; until 2026-11-28 it was
+    /// 0.5, which reproduces the designs measured before).
+    pub first_stage_share: f64,
     /// Seed of the design's ChaCha8 stream (same seed, same plan). Default 1.
     pub seed: u64,
     /// Wall-clock limit, s: when it passes, no further generation starts (the finalists
@@ -82,6 +89,7 @@ impl Default for RobustSearch {
             init: Init::default(),
             move_radius_um: None,
             refine: None,
+            first_stage_share: DEFAULT_FIRST_STAGE_SHARE,
             seed: 1,
             time_limit_s: None,
             check_samples: 400,
@@ -134,6 +142,8 @@ pub struct RobustReport {
     /// The second stage, when asked for (`design` is its plan if it won the choice, else
     /// stage 1's).
     pub stage2: Option<Stage2>,
+    /// Stage 1's share of the replay budget, when there were two stages.
+    pub first_stage_share: Option<f64>,
 }
 
 /// The family `init` searches, and its start parameters for a peg starting at `start`;
@@ -182,14 +192,20 @@ pub fn search_robust(
     let (family, initial) = family_for(&search.init, world, start, radius_um)?;
     let t0 = Instant::now();
     if search.refine.is_some() {
-        settings.max_replays = first_stage_budget(search.design.max_replays);
+        let share = search.first_stage_share;
+        if !(0.05..=0.95).contains(&share) {
+            let why = format!("{share}: allowed a share of the replays in [0.05, 0.95]");
+            return Err(Error::invalid("first_stage_share", why));
+        }
+        settings.max_replays = first_stage_budget(search.design.max_replays, share);
         // Stage 1 must hold one generation with its validation and confirmation (stage 2
         // is skipped, and says so, when what is left cannot).
-        let least = 2 * crate::cem::min_replays(&settings);
-        if search.design.max_replays < least {
+        let min = crate::cem::min_replays(&settings);
+        if settings.max_replays < min {
+            let least = (min as f64 / share).ceil() as usize;
             let why = format!(
-                "{} replays cannot hold the first of two stages (it gets half): allowed at \
-                 least {least}",
+                "{} replays cannot hold the first of two stages (it gets {share} of them): \
+                 allowed at least {least}",
                 search.design.max_replays
             );
             return Err(Error::invalid("max_replays", why));
@@ -259,5 +275,6 @@ pub fn search_robust(
         max_replays: search.design.max_replays,
         total_replays,
         stage2,
+        first_stage_share: search.refine.map(|_| search.first_stage_share),
     })
 }

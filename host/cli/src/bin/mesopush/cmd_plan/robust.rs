@@ -10,7 +10,7 @@ use clap::Args;
 use mesopush_core::check::Allowed;
 use mesopush_plan::figures::draw_replayed_plan;
 use mesopush_plan::rrt_starts::{RrtStart, SCREEN_SAMPLES, best_rrt_plan, rrt_screen_seed_for};
-use mesopush_plan::staged::{Refine, Stage2};
+use mesopush_plan::staged::{DEFAULT_FIRST_STAGE_SHARE, Refine, Stage2};
 use mesopush_plan::wall_press::WallPressSettings;
 use mesopush_plan::{
     Init, RobustReport, RobustSearch, RobustSettings, RrtSettings, UncertainWorld, search_robust,
@@ -91,13 +91,17 @@ pub(super) struct RobustArgs {
     /// Two stages: after the design over the start family, insert the best of the presses
     /// of the part against a wall before the first move (an uncertainty-removing move,
     /// ranked on 64 screening worlds) and search all the plan's moves again; the result replaces stage 1's plan only if it succeeds on more of 1000
-    /// common worlds. The stages share --max-replays (stage 1 gets half).
+    /// common worlds. The stages share --max-replays (stage 1 gets --first-stage-share).
     #[arg(long, conflicts_with = "refine_moves")]
     wall_press: bool,
     /// Two stages as --wall-press, without the press: stage 2 searches stage 1's moves as
     /// they are (the like-for-like comparison for --wall-press).
     #[arg(long)]
     refine_moves: bool,
+    /// With --wall-press or --refine-moves: stage 1's share of --max-replays (0.5 reproduces
+    /// the two-stage designs measured before 2026-11-28).
+    #[arg(long, default_value_t = DEFAULT_FIRST_STAGE_SHARE, value_parser = crate::ranges::real(Allowed::closed(0.05, 0.95, "")))]
+    first_stage_share: f64,
     /// Budget of the whole design in plan replays (training, validation, confirmation): the
     /// search stops where the next generation would not fit. Same seed and budget, same
     /// plan, on any machine and thread count.
@@ -174,6 +178,7 @@ pub(super) fn run(args: &RobustArgs) -> Result<()> {
         } else {
             args.refine_moves.then_some(Refine::Moves)
         },
+        first_stage_share: args.first_stage_share,
         seed: c.seed,
         time_limit_s: c.time_limit_s,
         check_samples: args.check_samples,
@@ -282,6 +287,7 @@ fn summary(
         "plan": if written { Some(&c.out) } else { None },
         "total_replays": o.total_replays,
         "stage2": o.stage2.as_ref().map(stage2_json),
+        "first_stage_share": o.first_stage_share,
         "rrt_start": rrt.map(|r| json!({
             "seed": r.seed, "successes": r.successes, "screen_samples": r.samples,
             "runs": r.runs.iter().map(|(s, n)| json!({"seed": s, "successes": n})).collect::<Vec<_>>(),
