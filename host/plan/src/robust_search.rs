@@ -202,7 +202,10 @@ pub fn search_robust(
         // is skipped, and says so, when what is left cannot).
         let min = crate::cem::min_replays(&settings);
         if settings.max_replays < min {
-            let least = (min as f64 / share).ceil() as usize;
+            let mut least = (min as f64 / share).ceil() as usize;
+            while first_stage_budget(least, share) < min {
+                least += 1; // rounding: at most a step or two
+            }
             let why = format!(
                 "{} replays cannot hold the first of two stages (it gets {share} of them): \
                  allowed at least {least}",
