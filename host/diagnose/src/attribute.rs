@@ -8,8 +8,10 @@ use super::adequacy::AllTrials;
 use super::candidates::{Effect, NOMINAL, base_model, mean_mu_surface};
 use super::data::TrialData;
 use super::decide::{Ambiguity, EffectScore, Verdict, decide, tip_winner, training_lead};
+use super::effect_refit::refit_named;
 use super::fit::{Fit, fit, fit_where};
 use super::free_support::{refit_with_free_support, training_lead_index};
+use super::free_tip::{FreeTip, fit_free_tip};
 use super::nominal::{Held, SupportFit, nominal_base};
 use super::objective::{loss, residual_vector, residuals};
 use super::options::Options;
@@ -55,8 +57,12 @@ pub struct Diagnosis {
     /// The nominal support fit: which family was kept, and each family's held-out error.
     pub support_fit: SupportFit,
     /// Whether the imaged probe tip alone named the effect ([`crate::decide`]: an effect
-    /// between the command and the image, while the part's poses stay above the floor).
+    /// between the command and the image, while the part's poses stay above the floor; or
+    /// [`crate::free_tip`]: the free tip's kinematic fits).
     pub named_by_tip: bool,
+    /// The stage and camera effects fitted on the free imaged tip alone, when the trials
+    /// image it ([`crate::free_tip`]).
+    pub free_tip: Option<FreeTip>,
     /// Training and held-out trial ids.
     pub split: (Vec<String>, Vec<String>),
     /// Held-out residuals before (nominal) and after (extended model).
@@ -159,6 +165,14 @@ pub fn diagnose(
     let replay = ReplayOptions { base: opts.settings.clone(), registration_tol: None };
     let coarse = settings_for(&replay, &train[0]);
     let band = opts.floor_factor * (2.0 + if with_tip { 1.0 } else { 0.0 });
+    // The stage and camera effects on the free imaged tip alone: no replay of the part.
+    let nominal0 = [prior.mu_probe, prior_mu[1], 0.0, 0.0];
+    let free_tip = if with_tip {
+        fit_free_tip(&opts.candidates, &prior, &nominal0, train, heldout, &noise)
+    } else {
+        None
+    };
+    let free = free_tip.as_ref();
     progress("nominal support");
     let held = Held { trials: heldout, settings: &coarse, noise: &noise, with_tip };
     let (nominal, shifted, support_fit, fit_train) = nominal_base(&prior, train, &held, band, opts);
@@ -208,7 +222,20 @@ pub fn diagnose(
     for f in &fits {
         scores.push(score(f, heldout, s, &noise, with_tip));
     }
-    let (verdict, best, ambiguity) = decide(&scores, &fits, e0, band / opts.floor_factor, opts);
+    let joint_tip = tip_winner(&scores, &fits, opts).map(|f| f.candidate);
+    // Named by the free tip: its fit is the nominal fit run again with the effect held where
+    // the free tip puts it (first: the free tip's evidence needs no part model at all).
+    let free_named = if e0 > band { refit_named(free, &near, progress) } else { None };
+    let free_named = free_named.and_then(|w| {
+        let i = fits.iter().position(|f| f.candidate == w.candidate)?;
+        scores[i + 1] = score(&w, heldout, s, &noise, with_tip);
+        fits[i] = w;
+        Some(fits[i].candidate)
+    });
+    let (verdict, best, ambiguity) = match free_named {
+        Some(c) => (Verdict::Effect, fits.iter().find(|f| f.candidate == c), None),
+        None => decide(&scores, &fits, e0, band / opts.floor_factor, opts),
+    };
     let batch = AllTrials { all: &all, settings: s, noise: &noise, with_tip };
     let nominals: Vec<&Fit> =
         if support_fit.family == "shifted" { vec![&nominal] } else { vec![&nominal, &shifted] };
@@ -216,7 +243,9 @@ pub fn diagnose(
     let (verdict, best, ambiguity) =
         if adequacy.overrules { (Verdict::None, None, None) } else { (verdict, best, ambiguity) };
     let lead = training_lead(&scores, opts).filter(|_| verdict == Verdict::Unexplained);
-    let named_by_tip = verdict == Verdict::Effect && tip_winner(&scores, &fits, opts).is_some();
+    let named_by_tip = verdict == Verdict::Effect
+        && (free_named.is_some()
+            || joint_tip.is_some_and(|c| Some(c) == best.map(|b| b.candidate)));
     let best = best.cloned().unwrap_or_else(|| nominal.clone());
     let after = residuals(heldout, &best.model, s)?;
     let every: Vec<&Fit> = std::iter::once(&nominal).chain(&fits).collect();
@@ -235,6 +264,7 @@ pub fn diagnose(
         training_lead: lead,
         support_fit,
         named_by_tip,
+        free_tip,
         split: (ids(train), ids(heldout)),
         residuals: (before, after),
         heldout: heldout.to_vec(),

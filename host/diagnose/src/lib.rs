@@ -6,7 +6,8 @@
 //! the residual is already at the measurement floor. `docs/diagnose.md` has the method.
 //!
 //! Layers, bottom up: the trials ([`data`]), their prediction ([`predict`]) and residuals
-//! ([`residual`], [`tip`], [`structure`]); the candidates ([`candidates`]), what the fits
+//! ([`residual`], [`tip`], [`structure`]); the stage and camera effects on the free tip alone
+//! ([`free_tip`]); the candidates ([`candidates`]), what the fits
 //! minimise ([`objective`]) and the fitter ([`fit`], on the minimisers of
 //! [`mesopush_ident::optim`]); where each search starts ([`starts`]); the verdict
 //! ([`decide`], [`adequacy`]) and the whole diagnosis ([`attribute`], [`options`], [`polish`]); its report
@@ -22,10 +23,12 @@ pub mod candidates;
 pub mod confusion;
 pub mod data;
 pub mod decide;
+pub mod effect_refit;
 pub mod error;
 pub mod figure;
 pub mod fit;
 pub mod free_support;
+pub mod free_tip;
 pub mod heldout;
 pub mod memo;
 pub mod nominal;

@@ -5,6 +5,7 @@
 use super::attribute::Diagnosis;
 use super::candidates::Effect;
 use super::decide::{Ambiguity, Verdict};
+use super::free_tip::FreeTip;
 use super::residual::Mse;
 use super::structure::Structure;
 use serde_json::{Value, json};
@@ -50,14 +51,26 @@ fn verdict_line(d: &Diagnosis) -> String {
             let tip = |c: Effect| {
                 d.scores.iter().find(|s| s.candidate == c).map_or(f64::NAN, |s| s.heldout_tip_norm)
             };
+            let free = d.free_tip.as_ref().and_then(|f| {
+                let w = f.fit_of(d.best.candidate)?;
+                Some(format!(
+                    "; the free tip alone, fitted without the part: {:.1} → {:.1}",
+                    f.nominal_heldout_norm, w.heldout_norm
+                ))
+            });
+            let poses = if norms(d).1 <= d.floor_band {
+                "with it in, the part's poses are predicted within the floor band"
+            } else {
+                "the part's poses are not predicted to the floor"
+            };
             format!(
                 "effect: {} — named by the imaged probe tip, on which it acts whatever the \
-                 part's physics (held-out tip error {:.1} → {:.1} noise units, 1 at the floor; \
-                 no other candidate brings it to the floor band); the part's poses are not \
-                 predicted to the floor",
+                 part's physics (held-out tip error {:.1} → {:.1} noise units, 1 at the floor{}; \
+                 no other candidate brings it to the floor band); {poses}",
                 d.best.candidate.name(),
                 tip(Effect::Nominal),
-                tip(d.best.candidate)
+                tip(d.best.candidate),
+                free.unwrap_or_default()
             )
         }
         (Verdict::Effect, _) => format!("effect: {}", d.best.candidate.name()),
@@ -181,6 +194,25 @@ fn pm(v: f64, e: f64) -> String {
     if e.is_finite() { format!("{v:.5} ± {e:.2}") } else { format!("{v:.5} (undetermined)") }
 }
 
+/// The free-tip fits ([`crate::free_tip`]) as JSON: each effect by its library name, with
+/// its parameters by name.
+fn free_tip_json(f: &FreeTip) -> Value {
+    json!({
+        "nominal_train_norm": f.nominal_train_norm,
+        "nominal_heldout_norm": f.nominal_heldout_norm,
+        "frames_train": f.frames.0,
+        "frames_heldout": f.frames.1,
+        "fits": f.fits.iter().map(|w| json!({
+            "name": w.candidate.name(),
+            "parameters": w.candidate.effect_params().iter().zip(&w.values)
+                .map(|(p, v)| (p.name.to_owned(), json!(v)))
+                .collect::<serde_json::Map<String, Value>>(),
+            "train_norm": w.train_norm,
+            "heldout_norm": w.heldout_norm,
+        })).collect::<Vec<_>>(),
+    })
+}
+
 /// The `--json` summary.
 pub fn json(d: &Diagnosis) -> Value {
     let (b, a) = mse_before_after(d);
@@ -218,6 +250,7 @@ pub fn json(d: &Diagnosis) -> Value {
             "heldout_per_trial_norm": s.heldout_per_trial_norm,
             "heldout": s.heldout, "parameters": param_map(&s.params)})).collect::<Vec<_>>(),
         "support_fit": d.support_fit,
+        "free_tip": d.free_tip.as_ref().map(free_tip_json),
         "nominal_model": {"mu_probe": d.nominal.model.mu_probe,
             "support_points_um": d.nominal.model.support.points_um,
             "mu_surface": d.nominal.model.support.mu_surface},

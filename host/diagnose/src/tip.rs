@@ -14,7 +14,7 @@ use mesopush_sim::contact::closest_on_polygon;
 use std::convert::Infallible;
 
 /// Fewest free frames with an imaged tip that estimate a trial's tip registration offset.
-const MIN_REGISTRATION_FRAMES: usize = 3;
+pub(crate) const MIN_REGISTRATION_FRAMES: usize = 3;
 
 /// Where the commanded probe is relative to the measured peg in a frame (both measured, so
 /// which frames count, and how, does not depend on the model being fitted).
@@ -62,10 +62,7 @@ fn tip_zone(data: &TrialData, m: &Measured) -> TipZone {
 ///   comes from the needle's shaft, several µm off (clean simulated rig: 2–4 µm); a needle's
 ///   deflection under load, or a stage's lost motion while pushing, lies along the normal.
 pub fn tip_residuals(data: &TrialData, pred: &Prediction) -> Vec<Option<[f64; 2]>> {
-    // The trial's alone: the same at every evaluation, so kept ([`super::memo`]).
-    let Ok(zones) = cached(data, "tip_zones", || {
-        Ok::<_, Infallible>(data.frames.iter().map(|m| tip_zone(data, m)).collect::<Vec<_>>())
-    });
+    let zones = zones(data);
     let raw: Vec<Option<Vec2>> = data
         .frames
         .iter()
@@ -96,9 +93,31 @@ pub fn tip_residuals(data: &TrialData, pred: &Prediction) -> Vec<Option<[f64; 2]
         .collect()
 }
 
+/// Where the commanded probe is relative to the measured peg in every frame: the trial's
+/// alone, the same at every evaluation, so kept ([`super::memo`]).
+fn zones(data: &TrialData) -> std::sync::Arc<Vec<TipZone>> {
+    let Ok(zones) = cached(data, "tip_zones", || {
+        Ok::<_, Infallible>(data.frames.iter().map(|m| tip_zone(data, m)).collect::<Vec<_>>())
+    });
+    zones
+}
+
+/// The frames whose imaged tip is free of the peg (clear of its measured outline by a tip
+/// radius) and tracked, in order: where the image shows the tip on its own, so its place
+/// depends on the stage and the camera only, never on the part's physics
+/// ([`crate::free_tip`]).
+pub fn free_tip_frames(data: &TrialData) -> Vec<usize> {
+    zones(data)
+        .iter()
+        .enumerate()
+        .filter(|(k, z)| **z == TipZone::Free && data.frames[*k].tip_um.is_some())
+        .map(|(k, _)| k)
+        .collect()
+}
+
 /// The median of `v` ([`mesopush_core::stats::median`]: the mean of the middle two for an
 /// even count) when it has at least [`MIN_REGISTRATION_FRAMES`] values.
-fn median(mut v: Vec<f64>) -> Option<f64> {
+pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
     if v.len() < MIN_REGISTRATION_FRAMES {
         return None;
     }
