@@ -226,7 +226,11 @@ pub fn diagnose(
     // Named by the free tip: its fit is the nominal fit run again with the effect held where
     // the free tip puts it (first: the free tip's evidence needs no part model at all).
     let free_named = if e0 > band { refit_named(free, &near, progress) } else { None };
-    let free_named = free_named.and_then(|w| {
+    // A refit that cannot replay every trial (a pusher starting inside the rescaled part:
+    // fresh seed-16 scale-00) is not an explanation: the verdict is then left to the rules.
+    let replays =
+        |w: &Fit| all.iter().all(|t| residuals(std::slice::from_ref(t), &w.model, s).is_ok());
+    let free_named = free_named.filter(replays).and_then(|w| {
         let i = fits.iter().position(|f| f.candidate == w.candidate)?;
         scores[i + 1] = score(&w, heldout, s, &noise, with_tip);
         fits[i] = w;
