@@ -5,7 +5,7 @@
 //! `unexplained` otherwise.
 
 use super::adequacy::AllTrials;
-use super::candidates::{Effect, NOMINAL, base_model, mean_mu_surface};
+use super::candidates::{Effect, NOMINAL, base_model, mean_mu_surface, nominal_values};
 use super::data::TrialData;
 use super::decide::{Ambiguity, EffectScore, Verdict, decide, tip_winner, training_lead};
 use super::effect_refit::refit_named;
@@ -166,9 +166,8 @@ pub fn diagnose(
     let coarse = settings_for(&replay, &train[0]);
     let band = opts.floor_factor * (2.0 + if with_tip { 1.0 } else { 0.0 });
     // The stage and camera effects on the free imaged tip alone: no replay of the part.
-    let nominal0 = [prior.mu_probe, prior_mu[1], 0.0, 0.0];
     let free_tip = if with_tip {
-        fit_free_tip(&opts.candidates, &prior, &nominal0, train, heldout, &noise)
+        fit_free_tip(&opts.candidates, &prior, &nominal_values(&prior), train, heldout, &noise)
     } else {
         None
     };

@@ -88,6 +88,12 @@ pub fn base_model(part: &Part) -> Model {
     Model { part: part.clone(), support, ..default }
 }
 
+/// The [`NOMINAL`] vector that gives `m` back under [`Effect::apply`]: its probe μ, its
+/// mean surface μ, no shift of the support.
+pub fn nominal_values(m: &Model) -> [f64; 4] {
+    [m.mu_probe, mean_mu_surface(&m.support), 0.0, 0.0]
+}
+
 /// The mean surface friction of a support (the NOMINAL vector's `mu_surface`).
 pub fn mean_mu_surface(s: &SupportDistribution) -> f64 {
     s.mu_surface.iter().sum::<f64>() / 3.0

@@ -8,7 +8,7 @@
 //! its support families, at the coarse step — runs again on trials it now reads through the
 //! effect, and that fit is the named effect's.
 
-use super::candidates::mean_mu_surface;
+use super::candidates::nominal_values;
 use super::fit::Fit;
 use super::free_tip::FreeTip;
 use super::nominal::nominal_base;
@@ -27,8 +27,7 @@ pub fn refit_named(
     let c = free?.winner(opts.floor_factor, opts.min_gain)?;
     let effect = &free?.fit_of(c)?.values;
     let p = near.prior;
-    let nominal = [p.mu_probe, mean_mu_surface(&p.support), 0.0, 0.0];
-    let prior = c.apply(p, &[&nominal[..], effect].concat());
+    let prior = c.apply(p, &[&nominal_values(p)[..], effect].concat());
     progress(&format!("nominal refit with {} held", c.name()));
     // At the main pass's coarse step: the finer step's refit (`NearFloor::refit`) cost a
     // third more time here and predicted the held-out trials no better (seed-1 backlash-01:

@@ -13,7 +13,7 @@
 //! COM). The fitted support becomes the base every effect candidate shifts and scales
 //! ([`crate::candidates::Effect::apply`]).
 
-use super::candidates::{Effect, mean_mu_surface};
+use super::candidates::{Effect, mean_mu_surface, nominal_values};
 use super::data::TrialData;
 use super::fit::{Fit, fit};
 use super::objective::{loss, residual_vector, residuals};
@@ -273,7 +273,7 @@ pub fn nominal_base(
         if opts.profile_start_poses { attach(train, m, s, noise) } else { train.to_vec() }
     };
     let fit_on = |base: &Model, train: &[TrialData]| {
-        let x0 = vec![base.mu_probe, mean_mu_surface(&base.support), 0.0, 0.0];
+        let x0 = nominal_values(base).to_vec();
         fit(Effect::Nominal, base, train, s, noise, &[x0], opts.nominal_evals)
     };
     let mut shifted = fit_on(prior, &at(prior));
