@@ -8,12 +8,12 @@
 //! Run: `cargo bench -p mesopush-diagnose --bench diagnose`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use mesopush_diagnose::Effect;
 use mesopush_diagnose::data::TrialData;
 use mesopush_diagnose::objective::loss;
 use mesopush_diagnose::predict::predict;
 use mesopush_diagnose::residual::Noise;
 use mesopush_diagnose::synth::write_batch;
+use mesopush_diagnose::{Effect, Options};
 use mesopush_sim::{Model, SimSettings};
 use std::hint::black_box;
 
@@ -33,6 +33,12 @@ fn evaluation(c: &mut Criterion) {
     g.sample_size(20);
     g.bench_function("predict_one_trial", |b| {
         b.iter(|| black_box(predict(&trials[0], &model, &settings).expect("replays")))
+    });
+    // The same replay at diagnosis's Newton tolerance (`Options::default().settings`), side
+    // by side with the simulator's default above.
+    let loose = Options::default().settings;
+    g.bench_function("predict_one_trial_diagnosis_newton_tol", |b| {
+        b.iter(|| black_box(predict(&trials[0], &model, &loose).expect("replays")))
     });
     // A new μ_probe at every iteration: the memo never holds the answer.
     let mut k = 0u32;
